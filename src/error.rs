@@ -1,0 +1,69 @@
+//! Typed library errors. Parameter problems are collected, never thrown one by one.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// One problem with an input file: where it is, what value was found, and how to fix it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Problem {
+    /// File the problem is in (as given on the command line or found in `params/`).
+    pub file: String,
+    /// 1-based line of the key, when it could be located.
+    pub line: Option<usize>,
+    /// TOML path of the offending key, e.g. `sensor[1].seat_diameter_mm`.
+    pub path: String,
+    /// The value found, rendered as text ("missing" when absent).
+    pub value: String,
+    /// The rule broken and the fix.
+    pub message: String,
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(l) => write!(f, "{}:{}: {} = {}: {}", self.file, l, self.path, self.value, self.message),
+            None => write!(f, "{}: {} = {}: {}", self.file, self.path, self.value, self.message),
+        }
+    }
+}
+
+/// A list of problems, shown one per line.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Problems(pub Vec<Problem>);
+
+impl fmt::Display for Problems {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(f, "{} problem(s) found:", self.0.len())?;
+        for p in &self.0 {
+            writeln!(f, "  {p}")?;
+        }
+        Ok(())
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Bad input: every problem found, each with its path, value and fix.
+    #[error("{0}")]
+    Input(Problems),
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    /// The geometry kernel or a check refused a part built from valid parameters.
+    #[error("part {part}: {message}")]
+    Geometry { part: String, message: String },
+}
+
+impl Error {
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io { path: path.into(), source }
+    }
+    pub fn geometry(part: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Geometry { part: part.into(), message: message.into() }
+    }
+    /// Whether this error is the user's input (exit code 2) rather than an internal failure.
+    pub fn is_input(&self) -> bool {
+        matches!(self, Error::Input(_))
+    }
+}
+
+pub type Result<T> = std::result::Result<T, Error>;

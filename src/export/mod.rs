@@ -1,0 +1,55 @@
+//! Writers for STL, 3MF and the manifest. Every writer produces bytes in memory; `atomic`
+//! puts them into `out/` (temporary name, then rename) so a failed build leaves `out/` as it was.
+
+pub mod manifest;
+pub mod stl;
+pub mod threemf;
+
+use crate::error::{Error, Result};
+use std::path::{Path, PathBuf};
+
+/// Files to write: every one is staged under a temporary name first, then all are renamed.
+#[derive(Default)]
+pub struct Staged {
+    files: Vec<(PathBuf, Vec<u8>)>,
+}
+
+impl Staged {
+    pub fn add(&mut self, path: PathBuf, bytes: Vec<u8>) {
+        self.files.push((path, bytes));
+    }
+    pub fn paths(&self) -> impl Iterator<Item = &Path> {
+        self.files.iter().map(|(p, _)| p.as_path())
+    }
+    /// Writes every file to `<name>.tmp-tipforge`, then renames them all into place. On any error
+    /// the temporaries are removed and nothing in place has changed.
+    pub fn commit(self) -> Result<Vec<PathBuf>> {
+        let mut temps = Vec::new();
+        for (path, bytes) in &self.files {
+            if let Some(dir) = path.parent() {
+                std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+            }
+            let tmp = tmp_name(path);
+            if let Err(e) = std::fs::write(&tmp, bytes) {
+                let _ = std::fs::remove_file(&tmp);
+                for t in &temps {
+                    let _ = std::fs::remove_file(t);
+                }
+                return Err(Error::io(&tmp, e));
+            }
+            temps.push(tmp);
+        }
+        let mut done = Vec::new();
+        for ((path, _), tmp) in self.files.iter().zip(&temps) {
+            std::fs::rename(tmp, path).map_err(|e| Error::io(path, e))?;
+            done.push(path.clone());
+        }
+        Ok(done)
+    }
+}
+
+fn tmp_name(path: &Path) -> PathBuf {
+    let mut s = path.as_os_str().to_owned();
+    s.push(".tmp-tipforge");
+    PathBuf::from(s)
+}

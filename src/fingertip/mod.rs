@@ -1,0 +1,423 @@
+//! Fingertip part family: `validate` checks the rules that need the body shape, `build` makes the
+//! part (body from exact surfaces, every feature cut in one boolean).
+
+pub mod shape;
+
+use crate::error::{Error, Result};
+use crate::mesh::{self, add, dot, frame, scale, segments, sub, Solid, P3};
+use crate::params::fingertip::{FingertipParams, Head, Sensor};
+use crate::part::Part;
+use serde_json::json;
+pub use shape::Shape;
+
+/// Where a seat ends up: the flat plane and the pocket, in the design frame.
+#[derive(Debug, Clone)]
+pub struct Seat {
+    /// Point of the pad surface over the seat centre.
+    pub surface: P3,
+    /// Outward normal of the seat plane.
+    pub normal: P3,
+    /// How far the flat plane lies below the pad surface at the centre.
+    pub flat_depth: f64,
+    /// Centre of the flat plane.
+    pub flat_center: P3,
+    /// Centre of the pocket floor.
+    pub floor_center: P3,
+}
+
+/// Locates the flat seat of a sensor, or says why it does not fit on the pad.
+pub fn seat(shape: &Shape, s: &Sensor) -> std::result::Result<Seat, String> {
+    let x = shape.length - s.position_from_tip_mm;
+    let y = s.lateral_offset_mm;
+    if x <= 0.0 {
+        return Err(format!("puts the seat centre beyond the mount face (body length {} mm)", shape.length));
+    }
+    let (Some(z), Some(n)) = (shape.z_pad(x, y), shape.pad_normal(x, y)) else {
+        return Err(format!("puts the seat centre off the body (half-width there {:.2} mm)", shape.half_width(x)));
+    };
+    let p0 = [x, y, z];
+    let (u, v, _) = frame(n);
+    let rf = s.flat_diameter_mm / 2.0;
+    let mut h: f64 = 0.0;
+    let reach = 2.0 * (shape.pad_depth + shape.dorsal_height);
+    for i in 0..96 {
+        let phi = 2.0 * std::f64::consts::PI * i as f64 / 96.0;
+        let q = add(p0, add(scale(u, rf * phi.cos()), scale(v, rf * phi.sin())));
+        // march inward until inside the body
+        let mut d = 0.0;
+        while d < reach && !shape.inside(sub(q, scale(n, d))) {
+            d += 0.005;
+        }
+        if d >= reach {
+            return Err(format!("leaves the flat region ({} mm across) partly off the body", s.flat_diameter_mm));
+        }
+        let hit = sub(q, scale(n, d));
+        if hit[2] >= -0.05 * shape.pad_depth {
+            return Err(format!("lets the flat region ({} mm across) reach the dorsal half: move it toward the pad centre or make it smaller", s.flat_diameter_mm));
+        }
+        if hit[0] <= 0.0 {
+            return Err("lets the flat region run past the mount face".into());
+        }
+        h = h.max(d);
+    }
+    let flat_center = sub(p0, scale(n, h));
+    let floor_center = sub(p0, scale(n, h + s.seat_depth_mm));
+    Ok(Seat { surface: p0, normal: n, flat_depth: h, flat_center, floor_center })
+}
+
+/// Plan-view path (x, y) of a sensor's tail channel: from the seat centre, a 45° run to the
+/// channel's lateral offset when it differs from the seat's, then straight past the mount face.
+pub fn channel_path(shape: &Shape, s: &Sensor) -> Vec<[f64; 2]> {
+    let (xs, ys, yc) = (shape.length - s.position_from_tip_mm, s.lateral_offset_mm, s.channel_offset_mm);
+    let mut path = vec![[xs, ys]];
+    let dy = (yc - ys).abs();
+    if dy > 1e-9 {
+        path.push([xs - dy, yc]);
+    }
+    path.push([-1.0, yc]);
+    path
+}
+
+/// Points along a polyline every `step` (always including the vertices).
+fn along(path: &[[f64; 2]], step: f64) -> Vec<([f64; 2], [f64; 2])> {
+    let mut out = Vec::new();
+    for w in path.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+        let t = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
+        let n = (len / step).ceil().max(1.0) as usize;
+        for k in 0..=n {
+            let f = k as f64 / n as f64;
+            out.push(([a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f], t));
+        }
+    }
+    out
+}
+
+/// Distance from a point to a polyline.
+fn path_distance(path: &[[f64; 2]], p: [f64; 2]) -> f64 {
+    path.windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let d = [b[0] - a[0], b[1] - a[1]];
+            let l2 = d[0] * d[0] + d[1] * d[1];
+            let t = (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0);
+            ((p[0] - a[0] - t * d[0]).powi(2) + (p[1] - a[1] - t * d[1]).powi(2)).sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Floor point of the channel at plan point (x, y): the pad surface raised by the channel depth.
+fn floor_point(shape: &Shape, s: &Sensor, x: f64, y: f64) -> Option<P3> {
+    Some([x, y, shape.z_pad(x.max(1e-9), y)? + s.channel_depth_mm])
+}
+
+fn point_box_distance(p: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> f64 {
+    let dy = (lo[0] - p[0]).max(p[0] - hi[0]).max(0.0);
+    let dz = (lo[1] - p[1]).max(p[1] - hi[1]).max(0.0);
+    let d = (dy * dy + dz * dz).sqrt();
+    if d > 0.0 {
+        d
+    } else {
+        -((p[0] - lo[0]).min(hi[0] - p[0]).min(p[1] - lo[1]).min(hi[1] - p[1]))
+    }
+}
+
+fn point_box3_distance(p: P3, lo: P3, hi: P3) -> f64 {
+    let d: Vec<f64> = (0..3).map(|k| (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0)).collect();
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+}
+
+/// Socket box in the design frame.
+fn socket_box(p: &FingertipParams) -> (P3, P3) {
+    let m = &p.mount;
+    (
+        [-1.0, -m.socket_width_mm / 2.0, m.socket_center_z_mm - m.socket_height_mm / 2.0],
+        [m.socket_depth_mm, m.socket_width_mm / 2.0, m.socket_center_z_mm + m.socket_height_mm / 2.0],
+    )
+}
+
+/// Head recess floor height at a hole (design frame z), and its diameter at that height.
+fn head_floor(shape: &Shape, p: &FingertipParams, x: f64, y: f64) -> Option<f64> {
+    let top = shape.z_dorsal(x, y)?;
+    let m = &p.mount;
+    Some(match m.head {
+        Head::None => top,
+        Head::Counterbore => top - m.head_depth_mm,
+        Head::Countersink => top - (m.head_diameter_mm - m.hole_diameter_mm) / 2.0 - m.head_depth_mm,
+    })
+}
+
+/// Rules that need the body shape. Returns (path, value, message) for each problem.
+pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
+    let mut out: Vec<(String, String, String)> = Vec::new();
+    let shape = Shape::new(&p.body);
+    let wall = p.print.min_wall_mm;
+    let (sb_lo, sb_hi) = socket_box(p);
+    let m = &p.mount;
+    let mut push = |path: String, value: String, msg: String| out.push((path, value, msg));
+
+    // socket walls
+    let max_channel_depth = p.sensors.iter().map(|s| s.channel_depth_mm).fold(0.0, f64::max);
+    let socket_rect = ([sb_lo[1], sb_lo[2]], [sb_hi[1], sb_hi[2]]);
+    if m.socket_depth_mm + wall >= shape.length {
+        push("mount.socket_depth_mm".into(), m.socket_depth_mm.to_string(), format!("leaves less than the minimum wall {wall} mm before the tip; use less than {:.2}", shape.length - wall));
+    } else {
+        for (x, need) in [(0.0, wall + max_channel_depth), (m.socket_depth_mm, wall + max_channel_depth), (m.socket_depth_mm + wall, 0.0)] {
+            let worst = shape.outline(x, 720).iter().map(|q| point_box_distance(*q, socket_rect.0, socket_rect.1)).fold(f64::INFINITY, f64::min);
+            let inside = shape.inside([x.max(1e-6), m.socket_center_z_mm * 0.0, m.socket_center_z_mm]);
+            if worst < need || !inside {
+                push(
+                    "mount.socket_width_mm".into(),
+                    format!("{} x {} mm at z {}", m.socket_width_mm, m.socket_height_mm, m.socket_center_z_mm),
+                    format!("the socket leaves a wall of {worst:.2} mm at x = {x:.1} mm; at least {need:.2} mm is needed (minimum wall plus tail channel depth): make the socket smaller or move socket_center_z_mm"),
+                );
+                break;
+            }
+        }
+    }
+
+    // seats
+    let mut seats = Vec::new();
+    for (i, s) in p.sensors.iter().enumerate() {
+        let k = |f: &str| format!("sensor[{i}].{f}");
+        match seat(&shape, s) {
+            Err(why) => {
+                push(k("position_from_tip_mm"), format!("{} (lateral {})", s.position_from_tip_mm, s.lateral_offset_mm), format!("{why}; the seat must be a flat region of the pad"));
+                seats.push(None);
+                continue;
+            }
+            Ok(st) => {
+                // wall under the pocket floor: to the far side of the body and to the socket
+                let (u, v, _) = frame(st.normal);
+                let rs = s.seat_diameter_mm / 2.0;
+                let mut thinnest = f64::INFINITY;
+                for j in 0..=24 {
+                    let q = if j == 24 {
+                        st.floor_center
+                    } else {
+                        let a = 2.0 * std::f64::consts::PI * j as f64 / 24.0;
+                        add(st.floor_center, add(scale(u, rs * a.cos()), scale(v, rs * a.sin())))
+                    };
+                    if !shape.inside(q) {
+                        thinnest = 0.0;
+                        break;
+                    }
+                    thinnest = thinnest.min(shape.exit_distance(q, scale(st.normal, -1.0), 50.0));
+                    thinnest = thinnest.min(point_box3_distance(q, sb_lo, sb_hi));
+                }
+                if thinnest < wall {
+                    push(k("seat_depth_mm"), s.seat_depth_mm.to_string(), format!("the seat pocket leaves a wall of {thinnest:.2} mm (minimum {wall} mm) to the socket or the far side"));
+                }
+                seats.push(Some(st));
+            }
+        }
+        // channel: on the pad, and walls to the socket
+        let path = channel_path(&shape, s);
+        for (q, t) in along(&path, 0.25) {
+            let x = q[0].max(0.0);
+            let mut bad = false;
+            for side in [-1.0, 0.0, 1.0] {
+                let ex = x - t[1] * side * s.channel_width_mm / 2.0;
+                let ey = q[1] + t[0] * side * s.channel_width_mm / 2.0;
+                let y_edge = ey.abs();
+                if y_edge > 0.85 * shape.half_width(x) {
+                    push(k("channel_offset_mm"), s.channel_offset_mm.to_string(), format!("the tail channel runs off the pad at x = {x:.1} mm (its edge at {y_edge:.2} mm, pad usable to {:.2} mm): move it toward the centre or narrow it", 0.85 * shape.half_width(x)));
+                    bad = true;
+                    break;
+                }
+                if ex < 0.0 || ex > m.socket_depth_mm + wall {
+                    continue;
+                }
+                if let Some(fp) = floor_point(&shape, s, ex, ey) {
+                    let d = point_box3_distance(fp, sb_lo, sb_hi);
+                    if d < wall - 1e-9 {
+                        push(k("channel_depth_mm"), s.channel_depth_mm.to_string(), format!("the tail channel leaves a wall of {d:.2} mm to the socket at x = {x:.1} mm (minimum {wall} mm)"));
+                        bad = true;
+                        break;
+                    }
+                }
+            }
+            if bad {
+                break;
+            }
+        }
+    }
+    // seats overlapping; channels crossing another seat's pocket
+    for i in 0..p.sensors.len() {
+        for j in 0..p.sensors.len() {
+            if i == j {
+                continue;
+            }
+            let (si, sj) = (&p.sensors[i], &p.sensors[j]);
+            if i < j {
+                if let (Some(a), Some(b)) = (&seats[i], &seats[j]) {
+                    let d = mesh::norm(sub(a.surface, b.surface));
+                    let need = (si.flat_diameter_mm + sj.flat_diameter_mm) / 2.0;
+                    if d < need {
+                        push(format!("sensor[{j}].position_from_tip_mm"), sj.position_from_tip_mm.to_string(), format!("its flat region overlaps sensor[{i}]'s: centres {d:.2} mm apart, at least {need:.2} mm needed"));
+                    }
+                }
+            }
+            // channel of i vs pocket of j, plan view
+            let (cx, cy, r) = (shape.length - sj.position_from_tip_mm, sj.lateral_offset_mm, sj.seat_diameter_mm / 2.0);
+            if path_distance(&channel_path(&shape, si), [cx, cy]) < r + si.channel_width_mm / 2.0 {
+                push(format!("sensor[{i}].channel_offset_mm"), si.channel_offset_mm.to_string(), format!("the tail channel crosses sensor[{j}]'s seat; route it beside (|offset| ≥ {:.2} mm)", cy.abs() + r + si.channel_width_mm / 2.0));
+            }
+        }
+    }
+
+    // holes
+    let rr = m.hole_diameter_mm.max(m.head_diameter_mm) / 2.0;
+    for (i, h) in m.holes.iter().enumerate() {
+        let path = format!("mount.holes[{i}]");
+        let val = format!("[{}, {}]", h[0], h[1]);
+        let r = m.hole_diameter_mm / 2.0;
+        if h[0] - r < 0.0 || h[0] + r > m.socket_depth_mm || h[1].abs() + r > m.socket_width_mm / 2.0 {
+            push(path.clone(), val.clone(), format!("the hole ({} mm) must open into the socket (x from 0 to {}, |y| up to {} mm)", m.hole_diameter_mm, m.socket_depth_mm, m.socket_width_mm / 2.0));
+            continue;
+        }
+        match head_floor(&shape, p, h[0], h[1]) {
+            None => push(path.clone(), val.clone(), "the hole is not under the dorsal surface".into()),
+            Some(fz) => {
+                let grip = fz - sb_hi[2];
+                if grip < wall {
+                    push("mount.head_depth_mm".into(), m.head_depth_mm.to_string(), format!("hole {i}: the head recess leaves {grip:.2} mm of material above the socket (minimum {wall} mm)"));
+                }
+                let hw = shape.half_width(h[0]) * (1.0 - (fz.max(0.0) / shape.dorsal_height.max(1e-9) / (shape.r(h[0]) / shape.pad_depth)).powi(2)).max(0.0).sqrt();
+                if h[1].abs() + rr + wall > hw {
+                    push(path.clone(), val.clone(), format!("the screw head recess ({} mm) comes within {:.2} mm of the side (minimum {wall} mm)", m.head_diameter_mm, hw - h[1].abs() - rr));
+                }
+            }
+        }
+        for (j, g) in m.holes.iter().enumerate().skip(i + 1) {
+            let d = ((h[0] - g[0]).powi(2) + (h[1] - g[1]).powi(2)).sqrt();
+            if d < 2.0 * rr + wall {
+                push(format!("mount.holes[{j}]"), format!("[{}, {}]", g[0], g[1]), format!("too close to hole {i}: {d:.2} mm apart, at least {:.2} mm", 2.0 * rr + wall));
+            }
+        }
+        for (k, s) in p.sensors.iter().enumerate() {
+            let (cx, cy) = (shape.length - s.position_from_tip_mm, s.lateral_offset_mm);
+            let d = ((h[0] - cx).powi(2) + (h[1] - cy).powi(2)).sqrt();
+            if d < rr + s.flat_diameter_mm / 2.0 {
+                push(path.clone(), val.clone(), format!("the screw hole crosses sensor[{k}]'s seat in plan view ({d:.2} mm between centres)"));
+            }
+            // a screw longer than planned goes through the socket floor: it must not land in the tail channel
+            if path_distance(&channel_path(&shape, s), *h) < m.hole_diameter_mm / 2.0 + s.channel_width_mm / 2.0 {
+                push(path.clone(), val.clone(), format!("the screw hole lies over sensor[{k}]'s tail channel (plan view): a long screw would cut the tail; move it sideways"));
+            }
+        }
+    }
+    out
+}
+
+/// Output frame: the mount face on the bed (z = 0), the finger pointing up.
+pub fn to_print(p: P3) -> P3 {
+    [p[1], p[2], p[0]]
+}
+
+/// Builds the fingertip.
+pub fn build(p: &FingertipParams) -> Result<Part> {
+    let name = p.name.as_str();
+    let shape = Shape::new(&p.body);
+    let tol = p.print.chordal_tolerance_mm;
+    let body = Solid::from_mesh(&shape.body_mesh(tol, name)?, name)?;
+
+    let mut cutters = Vec::new();
+    let mut seat_features = Vec::new();
+    let far = p.body.thickness_mm + 4.0;
+    for (i, s) in p.sensors.iter().enumerate() {
+        let st = seat(&shape, s).map_err(|w| Error::geometry(name, format!("sensor[{i}] {w}")))?;
+        let rf = s.flat_diameter_mm / 2.0;
+        let rs = s.seat_diameter_mm / 2.0;
+        cutters.push(Solid::cylinder(st.flat_center, st.normal, st.flat_depth + far, rf, rf, segments(rf, tol)));
+        cutters.push(Solid::cylinder(st.floor_center, st.normal, s.seat_depth_mm + st.flat_depth + far, rs, rs, segments(rs, tol)));
+        // tail channel: hulls of short pieces whose floor follows the pad at the channel depth
+        let zb = -shape.pad_depth - 2.0;
+        let pts = along(&channel_path(&shape, s), 0.5);
+        for w in pts.windows(2) {
+            let ((a, ta), (b, tb)) = (w[0], w[1]);
+            if (a[0] - b[0]).abs() + (a[1] - b[1]).abs() < 1e-9 {
+                continue;
+            }
+            let mut hull = Vec::with_capacity(8);
+            for (q, t) in [(a, ta), (b, tb)] {
+                for side in [-1.0, 1.0] {
+                    let ex = q[0] - t[1] * side * s.channel_width_mm / 2.0;
+                    let ey = q[1] + t[0] * side * s.channel_width_mm / 2.0;
+                    let fz = floor_point(&shape, s, ex, ey).map(|p| p[2]).ok_or_else(|| Error::geometry(name, format!("sensor[{i}] channel leaves the pad")))?;
+                    hull.push([ex, ey, fz]);
+                    hull.push([ex, ey, zb]);
+                }
+            }
+            cutters.push(Solid::hull(&hull));
+        }
+        seat_features.push(json!({
+            "flat_center": to_print(st.flat_center),
+            "floor_center": to_print(st.floor_center),
+            "normal": to_print(st.normal),
+            "flat_diameter_mm": s.flat_diameter_mm,
+            "seat_diameter_mm": s.seat_diameter_mm,
+            "seat_depth_mm": s.seat_depth_mm,
+            "flat_depth_mm": st.flat_depth,
+            "dome_diameter_mm": s.dome_diameter_mm,
+            "dome_height_mm": s.dome_height_mm,
+        }));
+    }
+    let m = &p.mount;
+    let (sb_lo, sb_hi) = socket_box(p);
+    cutters.push(Solid::cuboid(sb_lo, sb_hi));
+    let mut hole_features = Vec::new();
+    let top = shape.dorsal_height + 2.0;
+    for (i, h) in m.holes.iter().enumerate() {
+        let r = m.hole_diameter_mm / 2.0;
+        let base = [h[0], h[1], sb_hi[2] - 0.5];
+        cutters.push(Solid::cylinder(base, [0.0, 0.0, 1.0], top - base[2], r, r, segments(r, tol)));
+        let fz = head_floor(&shape, p, h[0], h[1]).ok_or_else(|| Error::geometry(name, format!("hole {i} is off the body")))?;
+        let rh = m.head_diameter_mm / 2.0;
+        match m.head {
+            Head::None => {}
+            Head::Counterbore => cutters.push(Solid::cylinder([h[0], h[1], fz], [0.0, 0.0, 1.0], top - fz, rh, rh, segments(rh, tol))),
+            Head::Countersink => {
+                let cone_h = rh - r;
+                cutters.push(Solid::cylinder([h[0], h[1], fz], [0.0, 0.0, 1.0], cone_h, r, rh, segments(rh, tol)));
+                cutters.push(Solid::cylinder([h[0], h[1], fz + cone_h - 1e-3], [0.0, 0.0, 1.0], top - fz - cone_h, rh, rh, segments(rh, tol)));
+            }
+        }
+        hole_features.push(json!({
+            "axis_point": to_print([h[0], h[1], sb_hi[2] + 0.5 * (fz - sb_hi[2])]),
+            "axis_dir": to_print([0.0, 0.0, 1.0]),
+            "diameter_mm": m.hole_diameter_mm,
+            "length_mm": fz - sb_hi[2],
+        }));
+    }
+    let cutter = Solid::union_all(&cutters).expect("a fingertip has at least the socket cutter");
+    let solid = body.difference(&cutter);
+    solid.ok(name)?;
+    // into the print frame: (x, y, z) -> (y, z, x) is a rotation
+    let solid = solid.place([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0; 3]);
+    let mesh = solid.to_mesh();
+    let _ = dot;
+    Ok(Part {
+        name: name.to_string(),
+        mesh,
+        solid,
+        expected_genus: m.holes.len() as i32,
+        density_g_cm3: p.print.density_g_cm3,
+        infill: 1.0,
+        write_3mf: true,
+        features: json!({
+            "kind": "fingertip",
+            "frame": "mount face on the bed (z = 0); x lateral, y toward the nail, z toward the tip",
+            "seats": seat_features,
+            "holes": hole_features,
+            "width_mm": p.body.width_mm,
+            "thickness_mm": p.body.thickness_mm,
+            "length_mm": p.body.length_mm,
+            "max_channel_depth_mm": p.sensors.iter().map(|s| s.channel_depth_mm).fold(0.0, f64::max),
+            "min_wall_mm": p.print.min_wall_mm,
+            "chordal_tolerance_mm": tol,
+        }),
+        extra: Default::default(),
+    })
+}

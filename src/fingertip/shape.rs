@@ -1,0 +1,264 @@
+//! The analytic fingertip body: the exact surfaces that truck models and the validation reads.
+
+use crate::error::Result;
+use crate::mesh::{self, Mesh, P3};
+use crate::params::fingertip::Body;
+use truck_modeling::{builder, Matrix4, Point3, Rad, Solid as TSolid, Vector3, Wire};
+
+/// Side profile r(x) (pad units: r(0) = pad depth) and the cross-section scales.
+#[derive(Debug, Clone)]
+pub struct Shape {
+    pub length: f64,
+    /// Pad depth below the mid-plane, = (width/2)² / pad transverse radius.
+    pub pad_depth: f64,
+    /// Dorsal height above the mid-plane.
+    pub dorsal_height: f64,
+    /// Lateral scale: half-width = lateral · r(x).
+    pub lateral: f64,
+    r_long: f64,
+    r_tip: f64,
+    /// End of the straight run.
+    pub x1: f64,
+    c1: (f64, f64),
+    c2: (f64, f64),
+    /// Tangent point between the pad arc and the tip arc.
+    tp: (f64, f64),
+}
+
+impl Shape {
+    pub fn new(b: &Body) -> Shape {
+        let pad_depth = (b.width_mm / 2.0).powi(2) / b.pad_transverse_radius_mm;
+        let (l, rl, rt) = (b.length_mm, b.pad_longitudinal_radius_mm, b.tip_radius_mm);
+        let c2 = (l - rt, 0.0);
+        let x1 = l - rt - ((rl - rt).powi(2) - (rl - pad_depth).powi(2)).max(0.0).sqrt();
+        let c1 = (x1, pad_depth - rl);
+        let d = (c2.0 - c1.0, c2.1 - c1.1);
+        let dn = (d.0 * d.0 + d.1 * d.1).sqrt();
+        let tp = (c1.0 + d.0 / dn * rl, c1.1 + d.1 / dn * rl);
+        Shape {
+            length: l,
+            pad_depth,
+            dorsal_height: b.thickness_mm - pad_depth,
+            lateral: b.width_mm / 2.0 / pad_depth,
+            r_long: rl,
+            r_tip: rt,
+            x1,
+            c1,
+            c2,
+            tp,
+        }
+    }
+
+    /// Profile radius at x (0 outside [0, length]).
+    pub fn r(&self, x: f64) -> f64 {
+        if !(0.0..=self.length).contains(&x) {
+            0.0
+        } else if x <= self.x1 {
+            self.pad_depth
+        } else if x <= self.tp.0 {
+            self.c1.1 + (self.r_long.powi(2) - (x - self.c1.0).powi(2)).max(0.0).sqrt()
+        } else {
+            (self.r_tip.powi(2) - (x - self.c2.0).powi(2)).max(0.0).sqrt()
+        }
+    }
+
+    /// dr/dx.
+    pub fn dr(&self, x: f64) -> f64 {
+        let h = 1e-6;
+        (self.r((x + h).min(self.length)) - self.r((x - h).max(0.0))) / ((x + h).min(self.length) - (x - h).max(0.0))
+    }
+
+    fn zscale(&self, z: f64) -> f64 {
+        if z >= 0.0 {
+            self.dorsal_height / self.pad_depth
+        } else {
+            1.0
+        }
+    }
+
+    /// Whether a point is inside the body (ignoring features).
+    pub fn inside(&self, p: P3) -> bool {
+        let r = self.r(p[0]);
+        if r <= 0.0 || p[0] <= 0.0 {
+            return false;
+        }
+        let rho2 = (p[1] / self.lateral).powi(2) + (p[2] / self.zscale(p[2])).powi(2);
+        rho2 < r * r
+    }
+
+    /// Half-width of the body at x.
+    pub fn half_width(&self, x: f64) -> f64 {
+        self.lateral * self.r(x)
+    }
+
+    /// Pad surface height (negative) at (x, y), if the point is over the body.
+    pub fn z_pad(&self, x: f64, y: f64) -> Option<f64> {
+        let r = self.r(x);
+        let q = 1.0 - (y / (self.lateral * r)).powi(2);
+        (r > 0.0 && q >= 0.0).then(|| -r * q.sqrt())
+    }
+
+    /// Dorsal surface height at (x, y).
+    pub fn z_dorsal(&self, x: f64, y: f64) -> Option<f64> {
+        self.z_pad(x, y).map(|z| -z * self.dorsal_height / self.pad_depth)
+    }
+
+    /// Outward unit normal of the pad surface at (x, y).
+    pub fn pad_normal(&self, x: f64, y: f64) -> Option<P3> {
+        let z = self.z_pad(x, y)?;
+        let r = self.r(x);
+        // F = (y/a)² + z² − r(x)², gradient points outward.
+        let g = [-2.0 * r * self.dr(x), 2.0 * y / self.lateral.powi(2), 2.0 * z];
+        Some(mesh::unit(g))
+    }
+
+    /// Distance travelled from `p` along unit `dir` until leaving the body (p must be inside).
+    pub fn exit_distance(&self, p: P3, dir: P3, max: f64) -> f64 {
+        let step = 0.01;
+        let mut t = 0.0;
+        while t < max {
+            if !self.inside(mesh::add(p, mesh::scale(dir, t + step))) {
+                // refine
+                let (mut lo, mut hi) = (t, t + step);
+                for _ in 0..30 {
+                    let mid = 0.5 * (lo + hi);
+                    if self.inside(mesh::add(p, mesh::scale(dir, mid))) {
+                        lo = mid
+                    } else {
+                        hi = mid
+                    }
+                }
+                return lo;
+            }
+            t += step;
+        }
+        max
+    }
+
+    /// Cross-section outline at x as (y, z) points.
+    pub fn outline(&self, x: f64, n: usize) -> Vec<[f64; 2]> {
+        let r = self.r(x);
+        (0..n)
+            .map(|i| {
+                let th = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+                let (s, c) = th.sin_cos();
+                [self.lateral * r * c, r * s * self.zscale(s)]
+            })
+            .collect()
+    }
+
+    /// The exact revolved body scaled to one half (`dorsal` or pad), as a truck solid.
+    fn truck_half(&self, dorsal: bool) -> TSolid {
+        let _ = dorsal;
+        let l = self.length;
+        let v = |x: f64, y: f64| builder::vertex(Point3::new(x, y, 0.0));
+        let mid = |c: (f64, f64), r: f64, a: (f64, f64), b: (f64, f64)| {
+            let m = ((a.0 + b.0) / 2.0 - c.0, (a.1 + b.1) / 2.0 - c.1);
+            let mn = (m.0 * m.0 + m.1 * m.1).sqrt();
+            Point3::new(c.0 + m.0 / mn * r, c.1 + m.1 / mn * r, 0.0)
+        };
+        let p_tip = v(l, 0.0);
+        let p_t = v(self.tp.0, self.tp.1);
+        let p_x1 = v(self.x1, self.pad_depth);
+        let p_m = v(0.0, self.pad_depth);
+        let p_o = v(0.0, 0.0);
+        let mut edges = vec![builder::circle_arc(&p_tip, &p_t, mid(self.c2, self.r_tip, (l, 0.0), self.tp))];
+        if self.x1 > 1e-6 {
+            edges.push(builder::circle_arc(&p_t, &p_x1, mid(self.c1, self.r_long, self.tp, (self.x1, self.pad_depth))));
+            edges.push(builder::line(&p_x1, &p_m));
+        } else {
+            edges.push(builder::circle_arc(&p_t, &p_m, mid(self.c1, self.r_long, self.tp, (0.0, self.pad_depth))));
+        }
+        edges.push(builder::line(&p_m, &p_o));
+        let wire: Wire = edges.into();
+        let shell = builder::cone(&wire, Vector3::unit_x(), Rad(2.0 * std::f64::consts::PI));
+        let solid = TSolid::new(vec![shell]);
+        let zs = if dorsal { self.dorsal_height / self.pad_depth } else { 1.0 };
+        builder::transformed(&solid, Matrix4::from_nonuniform_scale(1.0, self.lateral, zs))
+    }
+
+    /// The body as one closed mesh within `tol` of the exact surfaces. truck tessellates the
+    /// revolved pad body; the dorsal half is that body's exact image under a z-scale, applied
+    /// to the vertices above the mid-plane (a linear map there, so the chordal error scales by at
+    /// most the z-scale, which the tessellation tolerance accounts for).
+    pub fn body_mesh(&self, tol: f64, what: &str) -> Result<Mesh> {
+        let zs = self.dorsal_height / self.pad_depth;
+        let pad = mesh::tessellate(&self.truck_half(false), tol / zs.max(1.0), what)?;
+        Ok(pad.map(|p| if p[2] > 0.0 { [p[0], p[1], p[2] * zs] } else { p }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn body() -> Body {
+        Body { length_mm: 28.0, width_mm: 16.0, thickness_mm: 14.0, pad_longitudinal_radius_mm: 40.0, pad_transverse_radius_mm: 12.0, tip_radius_mm: 4.5 }
+    }
+
+    #[test]
+    fn profile_is_continuous_and_tangent() {
+        let s = Shape::new(&body());
+        assert!((s.r(0.0) - s.pad_depth).abs() < 1e-12);
+        assert!(s.r(28.0).abs() < 1e-9);
+        let mut prev = s.r(0.0);
+        for i in 1..=2800 {
+            let x = i as f64 * 0.01;
+            let r = s.r(x);
+            assert!((r - prev).abs() < 0.1, "jump at {x}");
+            assert!(r <= prev + 1e-12, "profile must not grow toward the tip");
+            prev = r;
+        }
+        // slopes match on both sides of the tangent point
+        let e = 1e-4;
+        let (a, b) = (s.dr(s.tp.0 - e), s.dr(s.tp.0 + e));
+        assert!((a - b).abs() < 1e-2, "{a} vs {b}");
+    }
+
+    #[test]
+    fn pad_is_flatter_than_dorsal() {
+        let s = Shape::new(&body());
+        assert!(s.pad_depth < s.dorsal_height);
+        // transverse radius of curvature at the pad bottom equals the parameter
+        let w2 = 8.0f64;
+        assert!(((w2 * w2 / s.pad_depth) - 12.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn tessellated_halves_are_within_tolerance_of_the_exact_surface() {
+        let s = Shape::new(&body());
+        let tol = 0.01;
+        let pad = s.body_mesh(tol, "test").unwrap();
+        let pad = Mesh { triangles: pad.triangles.iter().copied().filter(|t| t.iter().all(|&i| pad.vertices[i as usize][2] <= 0.0)).collect(), vertices: pad.vertices };
+        // every vertex lies on the exact surface (within round-off), and triangle centroids within tol
+        for v in &pad.vertices {
+            if v[0] > 1e-6 {
+                let rho = ((v[1] / s.lateral).powi(2) + v[2].powi(2)).sqrt();
+                let r = s.r(v[0]);
+                // radial distance in the scaled frame bounds the surface distance times the lateral scale
+                assert!((rho - r).abs() * s.lateral.max(1.0) < 1e-6 || v[0] >= s.length - 1e-6, "vertex off surface: {v:?} rho {rho} r {r}");
+            }
+        }
+        let mut worst = 0.0f64;
+        for t in &pad.triangles {
+            let p: Vec<P3> = t.iter().map(|&i| pad.vertices[i as usize]).collect();
+            let c = [(p[0][0] + p[1][0] + p[2][0]) / 3.0, (p[0][1] + p[1][1] + p[2][1]) / 3.0, (p[0][2] + p[1][2] + p[2][2]) / 3.0];
+            if c[0] < 1e-3 {
+                continue; // mount face is planar
+            }
+            // distance to the surface along the radial line, measured in real space
+            let r = s.r(c[0]);
+            let rho = ((c[1] / s.lateral).powi(2) + c[2].powi(2)).sqrt();
+            if rho < 1e-9 || c[0] > s.length - 0.5 {
+                continue;
+            }
+            let k = r / rho;
+            let q = [c[0], c[1] * k, c[2] * k];
+            let d = mesh::norm(mesh::sub(q, c));
+            // radial distance overestimates the normal distance where the surface is steep; use slope
+            let slope = s.dr(c[0]).abs();
+            worst = worst.max(d / (1.0 + slope * slope).sqrt());
+        }
+        assert!(worst <= tol * 1.6, "worst chordal deviation {worst}");
+    }
+}

@@ -1,0 +1,11 @@
+//! tipforge: printable FSR fingertips, calibration rig and PDMS molds for the Gifu Hand III from
+//! parameter files, and the sensor calibration loop. See ARCHITECTURE.md for the module map.
+
+pub mod build;
+pub mod checks;
+pub mod error;
+pub mod export;
+pub mod fingertip;
+pub mod mesh;
+pub mod params;
+pub mod part;

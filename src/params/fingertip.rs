@@ -1,0 +1,360 @@
+//! Fingertip parameters: raw TOML mirror and validated form.
+//!
+//! Frame (design frame): x runs from the mount face (x = 0) to the tip (x = length), y is lateral,
+//! z points to the nail (dorsal) side; the pad is at negative z.
+
+use super::{Collector, Schema, SourceFile};
+use crate::error::Result;
+use serde::Deserialize;
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawFingertip {
+    pub kind: Option<String>,
+    pub name: Option<String>,
+    pub body: Option<RawBody>,
+    pub sensor: Option<Vec<RawSensor>>,
+    pub mount: Option<RawMount>,
+    pub print: Option<RawPrint>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBody {
+    pub length_mm: Option<f64>,
+    pub width_mm: Option<f64>,
+    pub thickness_mm: Option<f64>,
+    pub pad_longitudinal_radius_mm: Option<f64>,
+    pub pad_transverse_radius_mm: Option<f64>,
+    pub tip_radius_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSensor {
+    pub position_from_tip_mm: Option<f64>,
+    pub lateral_offset_mm: Option<f64>,
+    pub seat_diameter_mm: Option<f64>,
+    pub seat_depth_mm: Option<f64>,
+    pub flat_diameter_mm: Option<f64>,
+    pub dome_diameter_mm: Option<f64>,
+    pub dome_height_mm: Option<f64>,
+    pub channel_width_mm: Option<f64>,
+    pub channel_depth_mm: Option<f64>,
+    pub channel_offset_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMount {
+    pub socket_width_mm: Option<f64>,
+    pub socket_height_mm: Option<f64>,
+    pub socket_depth_mm: Option<f64>,
+    pub socket_center_z_mm: Option<f64>,
+    pub hole_diameter_mm: Option<f64>,
+    pub holes: Option<Vec<[f64; 2]>>,
+    pub head: Option<String>,
+    pub head_diameter_mm: Option<f64>,
+    pub head_depth_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPrint {
+    pub density_g_cm3: Option<f64>,
+    pub min_wall_mm: Option<f64>,
+    pub chordal_tolerance_mm: Option<f64>,
+}
+
+pub static BODY_SCHEMA: Schema = Schema {
+    fields: &["length_mm", "width_mm", "thickness_mm", "pad_longitudinal_radius_mm", "pad_transverse_radius_mm", "tip_radius_mm"],
+    tables: &[],
+};
+pub static SENSOR_SCHEMA: Schema = Schema {
+    fields: &[
+        "position_from_tip_mm", "lateral_offset_mm", "seat_diameter_mm", "seat_depth_mm", "flat_diameter_mm",
+        "dome_diameter_mm", "dome_height_mm", "channel_width_mm", "channel_depth_mm", "channel_offset_mm",
+    ],
+    tables: &[],
+};
+pub static MOUNT_SCHEMA: Schema = Schema {
+    fields: &[
+        "socket_width_mm", "socket_height_mm", "socket_depth_mm", "socket_center_z_mm", "hole_diameter_mm", "holes",
+        "head", "head_diameter_mm", "head_depth_mm",
+    ],
+    tables: &[],
+};
+pub static PRINT_SCHEMA: Schema = Schema { fields: &["density_g_cm3", "min_wall_mm", "chordal_tolerance_mm"], tables: &[] };
+pub static SCHEMA: Schema = Schema {
+    fields: &["kind", "name"],
+    tables: &[("body", false, &BODY_SCHEMA), ("sensor", true, &SENSOR_SCHEMA), ("mount", false, &MOUNT_SCHEMA), ("print", false, &PRINT_SCHEMA)],
+};
+
+/// Body shape. The side view of the pad is a straight run from the mount, an arc of
+/// `pad_longitudinal_radius`, then the tip arc; the cross-section is half an ellipse on each side
+/// of the mid-plane, so the pad's transverse radius sets the pad depth and the rest of the
+/// thickness is the (rounder) dorsal side.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Body {
+    pub length_mm: f64,
+    pub width_mm: f64,
+    pub thickness_mm: f64,
+    pub pad_longitudinal_radius_mm: f64,
+    pub pad_transverse_radius_mm: f64,
+    pub tip_radius_mm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensor {
+    pub position_from_tip_mm: f64,
+    pub lateral_offset_mm: f64,
+    pub seat_diameter_mm: f64,
+    pub seat_depth_mm: f64,
+    pub flat_diameter_mm: f64,
+    pub dome_diameter_mm: f64,
+    pub dome_height_mm: f64,
+    pub channel_width_mm: f64,
+    pub channel_depth_mm: f64,
+    pub channel_offset_mm: f64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Head {
+    None,
+    Counterbore,
+    Countersink,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mount {
+    pub socket_width_mm: f64,
+    pub socket_height_mm: f64,
+    pub socket_depth_mm: f64,
+    pub socket_center_z_mm: f64,
+    pub hole_diameter_mm: f64,
+    /// (x from the mount face, y lateral) of each screw hole; holes run from the dorsal side into the socket.
+    pub holes: Vec<[f64; 2]>,
+    pub head: Head,
+    pub head_diameter_mm: f64,
+    pub head_depth_mm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Print {
+    pub density_g_cm3: f64,
+    pub min_wall_mm: f64,
+    pub chordal_tolerance_mm: f64,
+}
+
+/// Validated fingertip parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FingertipParams {
+    pub name: String,
+    pub body: Body,
+    pub sensors: Vec<Sensor>,
+    pub mount: Mount,
+    pub print: Print,
+}
+
+/// Allowed chordal tolerance range (mm).
+pub const TOLERANCE_RANGE_MM: (f64, f64) = (0.001, 0.05);
+
+pub fn print_params(c: &mut Collector, p: &RawPrint, min_wall_default: f64) -> Option<Print> {
+    let density = c.or_within(p.density_g_cm3, 1.24, "print.density_g_cm3", 0.1, 25.0);
+    let min_wall = c.or_within(p.min_wall_mm, min_wall_default, "print.min_wall_mm", 0.2, 10.0);
+    let tol = c.or_within(p.chordal_tolerance_mm, 0.01, "print.chordal_tolerance_mm", TOLERANCE_RANGE_MM.0, TOLERANCE_RANGE_MM.1);
+    Some(Print { density_g_cm3: density?, min_wall_mm: min_wall?, chordal_tolerance_mm: tol? })
+}
+
+impl FingertipParams {
+    /// Parses and validates a fingertip file, collecting every problem. Geometric rules that need
+    /// the body shape (seat on the pad, walls, hole clearances) are checked in
+    /// [`crate::fingertip::validate`], and their problems are added here too.
+    pub fn from_source(src: &SourceFile, default_name: &str) -> Result<FingertipParams> {
+        let mut c = Collector::new(src);
+        c.problems.extend(src.unknown_keys(&SCHEMA));
+        if !c.problems.is_empty() {
+            return super::finish(None, c.problems);
+        }
+        let mut problems = Vec::new();
+        let body: Option<RawBody> = src.table("body", &mut problems);
+        let sensors: Option<Vec<RawSensor>> = src.table("sensor", &mut problems);
+        let mount: Option<RawMount> = src.table("mount", &mut problems);
+        let print: Option<RawPrint> = src.table("print", &mut problems);
+        let name: Option<String> = match src.value.get("name") {
+            None => Some(default_name.to_string()),
+            Some(toml::Value::String(s)) if !s.is_empty() && s.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '-' || ch == '_') => Some(s.clone()),
+            Some(v) => {
+                problems.push(src.problem("name", v.to_string(), "name must be letters, digits, '-' or '_' (it names the output files)".into()));
+                None
+            }
+        };
+        c.problems.extend(problems);
+        let (Some(body), Some(sensors), Some(mount), Some(print), Some(name)) = (body, sensors, mount, print, name) else {
+            return super::finish(None, c.problems);
+        };
+        let v = validate_raw(&mut c, name, &body, &sensors, &mount, &print);
+        if let Some(p) = &v {
+            if c.problems.is_empty() {
+                for (path, value, msg) in crate::fingertip::validate(p) {
+                    c.push(&path, value, msg);
+                }
+            }
+        }
+        super::finish(v, c.problems)
+    }
+}
+
+fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSensor], m: &RawMount, p: &RawPrint) -> Option<FingertipParams> {
+    let length = c.positive(b.length_mm, "body.length_mm", "28.0");
+    let width = c.positive(b.width_mm, "body.width_mm", "16.0");
+    let thickness = c.positive(b.thickness_mm, "body.thickness_mm", "14.0");
+    let r_long = c.positive(b.pad_longitudinal_radius_mm, "body.pad_longitudinal_radius_mm", "40.0");
+    let r_trans = c.positive(b.pad_transverse_radius_mm, "body.pad_transverse_radius_mm", "12.0");
+    let r_tip = c.positive(b.tip_radius_mm, "body.tip_radius_mm", "4.5");
+    let print = print_params(c, p, 1.2);
+
+    let body = match (length, width, thickness, r_long, r_trans, r_tip) {
+        (Some(l), Some(w), Some(t), Some(rl), Some(rt), Some(rtip)) => {
+            let before = c.problems.len();
+            let pad_depth = (w / 2.0).powi(2) / rt;
+            if pad_depth >= t * 0.5 {
+                c.push(
+                    "body.pad_transverse_radius_mm",
+                    rt,
+                    format!(
+                        "gives a pad depth of {pad_depth:.2} mm, at least half the thickness {t} mm, so the pad would not be flatter than the dorsal side; use more than {:.2} mm",
+                        (w / 2.0).powi(2) / (t * 0.5)
+                    ),
+                );
+            }
+            if rtip >= pad_depth {
+                c.push("body.tip_radius_mm", rtip, format!("must be smaller than the pad depth {pad_depth:.2} mm ((width/2)² / pad_transverse_radius)"));
+            }
+            if rl <= pad_depth {
+                c.push("body.pad_longitudinal_radius_mm", rl, format!("must be larger than the pad depth {pad_depth:.2} mm"));
+            }
+            if c.problems.len() == before {
+                let straight = l - rtip - ((rl - rtip).powi(2) - (rl - pad_depth).powi(2)).sqrt();
+                if straight < 0.0 {
+                    c.push(
+                        "body.length_mm",
+                        l,
+                        format!("too short for the pad arcs: the side profile needs {:.2} mm; lengthen the body or reduce pad_longitudinal_radius_mm", l - straight),
+                    );
+                }
+            }
+            (c.problems.len() == before).then_some(Body {
+                length_mm: l,
+                width_mm: w,
+                thickness_mm: t,
+                pad_longitudinal_radius_mm: rl,
+                pad_transverse_radius_mm: rt,
+                tip_radius_mm: rtip,
+            })
+        }
+        _ => None,
+    };
+
+    if sensors.is_empty() || sensors.len() > 2 {
+        c.push("sensor", format!("{} sensor table(s)", sensors.len()), "a fingertip carries 1 or 2 sensors: write one or two `[[sensor]]` sections");
+    }
+    let mut out_sensors = Vec::new();
+    for (i, s) in sensors.iter().enumerate() {
+        let k = |f: &str| format!("sensor[{i}].{f}");
+        let pos = c.positive(s.position_from_tip_mm, &k("position_from_tip_mm"), "9.0");
+        let lat = c.req(Some(s.lateral_offset_mm.unwrap_or(0.0)), &k("lateral_offset_mm"), "0.0");
+        let seat_d = c.positive(s.seat_diameter_mm, &k("seat_diameter_mm"), "9.0");
+        let seat_depth = c.positive(s.seat_depth_mm, &k("seat_depth_mm"), "0.3");
+        let flat_d = c.positive(s.flat_diameter_mm, &k("flat_diameter_mm"), "10.0");
+        let dome_d = c.positive(s.dome_diameter_mm, &k("dome_diameter_mm"), "8.0");
+        let dome_h = c.positive(s.dome_height_mm, &k("dome_height_mm"), "1.0");
+        let ch_w = c.positive(s.channel_width_mm, &k("channel_width_mm"), "2.0");
+        let ch_d = c.positive(s.channel_depth_mm, &k("channel_depth_mm"), "0.5");
+        let ch_off = c.req(Some(s.channel_offset_mm.unwrap_or(lat.unwrap_or(0.0))), &k("channel_offset_mm"), "0.0");
+        if let (Some(sd), Some(fd)) = (seat_d, flat_d) {
+            if fd < sd {
+                c.push(&k("flat_diameter_mm"), fd, format!("the flat region must be at least the seat diameter {sd} mm"));
+            }
+        }
+        if let (Some(sd), Some(dd)) = (seat_d, dome_d) {
+            if dd > sd {
+                c.push(&k("dome_diameter_mm"), dd, format!("the dome must fit in the seat (seat_diameter_mm = {sd})"));
+            }
+        }
+        if let (Some(sd), Some(w)) = (seat_d, ch_w) {
+            if w > sd {
+                c.push(&k("channel_width_mm"), w, format!("the tail channel must be narrower than the seat ({sd} mm)"));
+            }
+        }
+        if let (Some(pos), Some(lat), Some(sd), Some(dp), Some(fd), Some(dd), Some(dh), Some(w), Some(d), Some(o)) =
+            (pos, lat, seat_d, seat_depth, flat_d, dome_d, dome_h, ch_w, ch_d, ch_off)
+        {
+            out_sensors.push(Sensor {
+                position_from_tip_mm: pos,
+                lateral_offset_mm: lat,
+                seat_diameter_mm: sd,
+                seat_depth_mm: dp,
+                flat_diameter_mm: fd,
+                dome_diameter_mm: dd,
+                dome_height_mm: dh,
+                channel_width_mm: w,
+                channel_depth_mm: d,
+                channel_offset_mm: o,
+            });
+        }
+    }
+
+    let sw = c.positive(m.socket_width_mm, "mount.socket_width_mm", "10.0");
+    let sh = c.positive(m.socket_height_mm, "mount.socket_height_mm", "5.0");
+    let sdp = c.positive(m.socket_depth_mm, "mount.socket_depth_mm", "8.0");
+    let sz = c.req(Some(m.socket_center_z_mm.unwrap_or(0.0)), "mount.socket_center_z_mm", "1.0");
+    let hd = c.positive(m.hole_diameter_mm, "mount.hole_diameter_mm", "2.4");
+    let holes = m.holes.clone().unwrap_or_default();
+    for (i, h) in holes.iter().enumerate() {
+        if !h[0].is_finite() || !h[1].is_finite() {
+            c.push(&format!("mount.holes[{i}]"), format!("{h:?}"), "hole positions must be finite [x_mm, y_mm] pairs");
+        }
+    }
+    let head = match m.head.as_deref().unwrap_or("counterbore") {
+        "none" => Some(Head::None),
+        "counterbore" => Some(Head::Counterbore),
+        "countersink" => Some(Head::Countersink),
+        other => {
+            c.push("mount.head", format!("{other:?}"), "use \"counterbore\", \"countersink\" or \"none\"");
+            None
+        }
+    };
+    let (hdia, hdepth) = match head {
+        Some(Head::None) | None => (Some(0.0), Some(0.0)),
+        Some(_) => (
+            c.positive(m.head_diameter_mm, "mount.head_diameter_mm", "4.0"),
+            if head == Some(Head::Countersink) { Some(m.head_depth_mm.unwrap_or(0.0)) } else { c.positive(m.head_depth_mm, "mount.head_depth_mm", "2.0") },
+        ),
+    };
+    if let (Some(hd), Some(hdia), Some(h)) = (hd, hdia, head) {
+        if h != Head::None && hdia <= hd {
+            c.push("mount.head_diameter_mm", hdia, format!("the screw head recess must be wider than the hole ({hd} mm)"));
+        }
+    }
+    let mount = match (sw, sh, sdp, sz, hd, head, hdia, hdepth) {
+        (Some(sw), Some(sh), Some(sdp), Some(sz), Some(hd), Some(head), Some(hdia), Some(hdepth)) => Some(Mount {
+            socket_width_mm: sw,
+            socket_height_mm: sh,
+            socket_depth_mm: sdp,
+            socket_center_z_mm: sz,
+            hole_diameter_mm: hd,
+            holes,
+            head,
+            head_diameter_mm: hdia,
+            head_depth_mm: hdepth,
+        }),
+        _ => None,
+    };
+    let kind_ok = true;
+    let _ = kind_ok;
+    if out_sensors.len() != sensors.len() || sensors.is_empty() || sensors.len() > 2 {
+        return None;
+    }
+    Some(FingertipParams { name, body: body?, sensors: out_sensors, mount: mount?, print: print? })
+}

@@ -1,0 +1,71 @@
+//! Parameter files: raw serde structs that mirror the TOML, and one conversion per part family
+//! that turns them into validated parameters while collecting every problem with its TOML path.
+//!
+//! Flow: text → `toml::Value` (syntax errors with file:line:column) → unknown-key scan over the
+//! whole file (all unknown keys at once, with "did you mean") → serde raw structs, table by table
+//! (type errors per table) → `TryFrom`-style validation that collects every semantic problem.
+
+pub mod fingertip;
+mod raw;
+
+pub use raw::{Collector, Schema, SourceFile};
+
+use crate::error::{Error, Problem, Problems, Result};
+use std::path::Path;
+
+/// What a parameter file describes, from its top-level `kind` key.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    Fingertip,
+    Rig,
+    Mold,
+    Sensor,
+    Protocol,
+}
+
+impl Kind {
+    pub const NAMES: &'static [&'static str] = &["fingertip", "rig", "mold", "sensor", "protocol"];
+    fn parse(s: &str) -> Option<Kind> {
+        Some(match s {
+            "fingertip" => Kind::Fingertip,
+            "rig" => Kind::Rig,
+            "mold" => Kind::Mold,
+            "sensor" => Kind::Sensor,
+            "protocol" => Kind::Protocol,
+            _ => return None,
+        })
+    }
+    /// Whether `tipforge build` turns files of this kind into printable parts.
+    pub fn is_part(self) -> bool {
+        matches!(self, Kind::Fingertip | Kind::Rig | Kind::Mold)
+    }
+}
+
+/// Reads a parameter file and parses its TOML (syntax errors carry file:line:column).
+pub fn read_source(path: &Path) -> Result<SourceFile> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    SourceFile::parse(&path.display().to_string(), text)
+}
+
+/// The file's `kind`, or a problem naming the allowed kinds.
+pub fn kind_of(src: &SourceFile) -> std::result::Result<Kind, Problem> {
+    match src.value.get("kind") {
+        Some(toml::Value::String(s)) => Kind::parse(s).ok_or_else(|| {
+            src.problem("kind", format!("{s:?}"), format!("unknown kind; use one of {}", Kind::NAMES.join(", ")))
+        }),
+        Some(v) => Err(src.problem("kind", v.to_string(), "kind must be a string".into())),
+        None => Err(src.problem(
+            "kind",
+            "missing".into(),
+            format!("add a top-level `kind = \"...\"` line, one of {}", Kind::NAMES.join(", ")),
+        )),
+    }
+}
+
+/// Turns collected problems into the error type, or passes the value on.
+pub fn finish<T>(value: Option<T>, problems: Vec<Problem>) -> Result<T> {
+    match value {
+        Some(v) if problems.is_empty() => Ok(v),
+        _ => Err(Error::Input(Problems(problems))),
+    }
+}

@@ -1,0 +1,39 @@
+//! A built part: its mesh, what the checks expect of it, and what the manifest reports.
+
+use crate::mesh::{Mesh, Solid};
+use serde_json::{Map, Value};
+
+#[derive(Clone)]
+pub struct Part {
+    /// Output file stem, e.g. `fingertip-1s`.
+    pub name: String,
+    pub mesh: Mesh,
+    pub solid: Solid,
+    /// Number of through holes the part must have (its genus).
+    pub expected_genus: i32,
+    pub density_g_cm3: f64,
+    /// Fraction of the volume printed solid (1.0 = 100 % infill).
+    pub infill: f64,
+    /// Whether to write a 3MF beside the STL.
+    pub write_3mf: bool,
+    /// Nominal features the external checks measure (seats, holes, faces), in the output frame.
+    pub features: Value,
+    /// Extra manifest entries (preload, material estimates, …).
+    pub extra: Map<String, Value>,
+}
+
+impl Part {
+    pub fn volume_mm3(&self) -> f64 {
+        self.solid.volume()
+    }
+    pub fn mass_g(&self) -> f64 {
+        self.volume_mm3() / 1000.0 * self.density_g_cm3 * self.infill
+    }
+}
+
+/// An extra output that is not a printable part (e.g. an assembly view), written as 3MF only.
+#[derive(Clone)]
+pub struct Assembly {
+    pub name: String,
+    pub parts: Vec<(String, Mesh)>,
+}
