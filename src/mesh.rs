@@ -109,6 +109,20 @@ impl Solid {
         let first = it.next()?.clone();
         Some(it.fold(first, |acc, p| acc.union(p)))
     }
+    /// Drops zero-volume shells a boolean can leave where cutter faces nearly coincide
+    /// (below `min_volume` mm³), returning how many were dropped.
+    pub fn drop_slivers(&self, min_volume: f64) -> (Solid, usize) {
+        let parts = self.0.decompose();
+        if parts.len() <= 1 {
+            return (self.clone(), 0);
+        }
+        let keep: Vec<Manifold> = parts.iter().filter(|p| p.volume() >= min_volume).cloned().collect();
+        let dropped = parts.len() - keep.len();
+        if dropped == 0 {
+            return (self.clone(), 0);
+        }
+        (Solid(Manifold::compose(&keep)), dropped)
+    }
     /// Number of disconnected bodies.
     pub fn bodies(&self) -> usize {
         self.0.decompose().len()

@@ -10,6 +10,9 @@ use crate::part::Part;
 use serde_json::json;
 pub use shape::Shape;
 
+/// Size of the 45° edge break at the top of a counterbore (mm).
+pub const EDGE_BREAK_MM: f64 = 0.5;
+
 /// Where a seat ends up: the flat plane and the pocket, in the design frame.
 #[derive(Debug, Clone)]
 pub struct Seat {
@@ -268,7 +271,7 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
     }
 
     // holes
-    let rr = m.hole_diameter_mm.max(m.head_diameter_mm) / 2.0;
+    let rr = m.hole_diameter_mm.max(m.head_diameter_mm) / 2.0 + if m.head == Head::Counterbore { EDGE_BREAK_MM } else { 0.0 };
     for (i, h) in m.holes.iter().enumerate() {
         let path = format!("mount.holes[{i}]");
         let val = format!("[{}, {}]", h[0], h[1]);
@@ -285,8 +288,9 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
                     push("mount.head_depth_mm".into(), m.head_depth_mm.to_string(), format!("hole {i}: the head recess leaves {grip:.2} mm of material above the socket (minimum {wall} mm)"));
                 }
                 let hw = shape.half_width(h[0]) * (1.0 - (fz.max(0.0) / shape.dorsal_height.max(1e-9) / (shape.r(h[0]) / shape.pad_depth)).powi(2)).max(0.0).sqrt();
-                if h[1].abs() + rr + wall > hw {
-                    push(path.clone(), val.clone(), format!("the screw head recess ({} mm) comes within {:.2} mm of the side (minimum {wall} mm)", m.head_diameter_mm, hw - h[1].abs() - rr));
+                let rh = m.hole_diameter_mm.max(m.head_diameter_mm) / 2.0;
+                if h[1].abs() + rh + wall > hw {
+                    push(path.clone(), val.clone(), format!("the screw head recess ({} mm) comes within {:.2} mm of the side (minimum {wall} mm)", m.head_diameter_mm, hw - h[1].abs() - rh));
                 }
             }
         }
@@ -299,8 +303,8 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
         for (k, s) in p.sensors.iter().enumerate() {
             let (cx, cy) = (shape.length - s.position_from_tip_mm, s.lateral_offset_mm);
             let d = ((h[0] - cx).powi(2) + (h[1] - cy).powi(2)).sqrt();
-            if d < rr + s.flat_diameter_mm / 2.0 {
-                push(path.clone(), val.clone(), format!("the screw hole crosses sensor[{k}]'s seat in plan view ({d:.2} mm between centres)"));
+            if d < m.hole_diameter_mm / 2.0 + s.flat_diameter_mm / 2.0 {
+                push(path.clone(), val.clone(), format!("the screw hole lies over sensor[{k}]'s seat (plan view, {d:.2} mm between centres): a long screw would reach the sensor"));
             }
             // a screw longer than planned goes through the socket floor: it must not land in the tail channel
             if path_distance(&channel_path(&shape, s), *h) < m.hole_diameter_mm / 2.0 + s.channel_width_mm / 2.0 {
@@ -330,7 +334,11 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
         let st = seat(&shape, s).map_err(|w| Error::geometry(name, format!("sensor[{i}] {w}")))?;
         let rf = s.flat_diameter_mm / 2.0;
         let rs = s.seat_diameter_mm / 2.0;
-        cutters.push(Solid::cylinder(st.flat_center, st.normal, st.flat_depth + far, rf, rf, segments(rf, tol)));
+        // spot face: exactly rf at the seat plane, flaring at 45° above it so no edge around the flat
+        // is sharper than 90°; it only cuts within flat_depth of the rim (the body lies below the
+        // tangent plane, flat_depth above the seat plane)
+        let flare_h = st.flat_depth + 2.0;
+        cutters.push(Solid::cylinder(st.flat_center, st.normal, flare_h, rf, rf + flare_h, segments(rf + flare_h, tol)));
         cutters.push(Solid::cylinder(st.floor_center, st.normal, s.seat_depth_mm + st.flat_depth + far, rs, rs, segments(rs, tol)));
         // tail channel: hulls of short pieces whose floor follows the pad at the channel depth
         let zb = -shape.pad_depth - 2.0;
@@ -346,12 +354,16 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
                     let ex = q[0] - t[1] * side * s.channel_width_mm / 2.0;
                     let ey = q[1] + t[0] * side * s.channel_width_mm / 2.0;
                     let fz = floor_point(&shape, s, ex, ey).map(|p| p[2]).ok_or_else(|| Error::geometry(name, format!("sensor[{i}] channel leaves the pad")))?;
+                    // walls flare at 45° from the floor, so the channel's edges are never sharp
+                    let flare = fz - zb;
                     hull.push([ex, ey, fz]);
-                    hull.push([ex, ey, zb]);
+                    hull.push([ex - t[1] * side * flare, ey + t[0] * side * flare, zb]);
                 }
             }
             cutters.push(Solid::hull(&hull));
         }
+        let cp = channel_path(&shape, s);
+        let channel_dir = to_print(mesh::unit([cp[1][0] - cp[0][0], cp[1][1] - cp[0][1], 0.0]));
         seat_features.push(json!({
             "flat_center": to_print(st.flat_center),
             "floor_center": to_print(st.floor_center),
@@ -362,6 +374,7 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
             "flat_depth_mm": st.flat_depth,
             "dome_diameter_mm": s.dome_diameter_mm,
             "dome_height_mm": s.dome_height_mm,
+            "channel_dir": channel_dir,
         }));
     }
     let m = &p.mount;
@@ -377,7 +390,22 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
         let rh = m.head_diameter_mm / 2.0;
         match m.head {
             Head::None => {}
-            Head::Counterbore => cutters.push(Solid::cylinder([h[0], h[1], fz], [0.0, 0.0, 1.0], top - fz, rh, rh, segments(rh, tol))),
+            Head::Counterbore => {
+                // straight counterbore up to just below the lowest point of its rim, then a 45° chamfer
+                let rim_low = (0..32)
+                    .filter_map(|k| {
+                        let a = 2.0 * std::f64::consts::PI * k as f64 / 32.0;
+                        shape.z_dorsal(h[0] + rh * a.cos(), h[1] + rh * a.sin())
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                // a 45° edge break of EDGE_BREAK_MM starting just below the rim's lowest point, so the
+                // downhill lip of the recess is not a sharp wedge; above it a wider straight bore
+                let start = (rim_low - fz - 0.2).max(0.5 * m.head_depth_mm);
+                cutters.push(Solid::cylinder([h[0], h[1], fz], [0.0, 0.0, 1.0], start, rh, rh, segments(rh, tol)));
+                cutters.push(Solid::cylinder([h[0], h[1], fz + start - 1e-3], [0.0, 0.0, 1.0], EDGE_BREAK_MM, rh, rh + EDGE_BREAK_MM, segments(rh + EDGE_BREAK_MM, tol)));
+                let z2 = fz + start + EDGE_BREAK_MM - 2e-3;
+                cutters.push(Solid::cylinder([h[0], h[1], z2], [0.0, 0.0, 1.0], top - z2, rh + EDGE_BREAK_MM, rh + EDGE_BREAK_MM, segments(rh + EDGE_BREAK_MM, tol)));
+            }
             Head::Countersink => {
                 let cone_h = rh - r;
                 cutters.push(Solid::cylinder([h[0], h[1], fz], [0.0, 0.0, 1.0], cone_h, r, rh, segments(rh, tol)));
@@ -392,7 +420,7 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
         }));
     }
     let cutter = Solid::union_all(&cutters).expect("a fingertip has at least the socket cutter");
-    let solid = body.difference(&cutter);
+    let (solid, _) = body.difference(&cutter).drop_slivers(1e-6);
     solid.ok(name)?;
     // into the print frame: (x, y, z) -> (y, z, x) is a rotation
     let solid = solid.place([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0; 3]);

@@ -1,0 +1,415 @@
+#!/usr/bin/env python3
+"""Independent mesh checks of tipforge's output with trimesh and manifold3d.
+
+Reads OUT/manifest.json and, for every part, the STL and 3MF it lists and the parameter file it
+came from. Each failed rule prints `part: rule: measured value` and the exit code is 1.
+
+    check_meshes.py [OUT]          check a build output folder (default: out)
+    check_meshes.py --self-test    prove each rule fails on a mesh made to break it
+"""
+import json
+import math
+import sys
+import tomllib
+from pathlib import Path
+
+import manifold3d as m3
+import numpy as np
+import trimesh
+
+RULES = []
+
+
+def rule(fn):
+    RULES.append(fn)
+    return fn
+
+
+class Ctx:
+    """One part under test: meshes, manifold, manifest entry, parameters."""
+
+    def __init__(self, name, entry, stl_mesh, other_mesh, params, root):
+        self.name = name
+        self.entry = entry
+        self.mesh = stl_mesh
+        self.other = other_mesh
+        self.params = params
+        self.root = root
+        self.manifold = to_manifold(stl_mesh)
+        f = entry.get("features", {})
+        self.features = f if isinstance(f, dict) else {}
+        self.tol = float(self.features.get("chordal_tolerance_mm", 0.01))
+
+
+def to_manifold(mesh):
+    # trimesh merges STL's repeated vertices on load (process=True); manifold needs shared vertices.
+    return m3.Manifold(m3.Mesh(vert_properties=np.asarray(mesh.vertices, dtype=np.float32), tri_verts=np.asarray(mesh.faces, dtype=np.uint32)))
+
+
+def frame_to_z(normal, origin):
+    """3x4 transform taking `origin` to 0 and unit `normal` to +z."""
+    w = np.asarray(normal, float)
+    w = w / np.linalg.norm(w)
+    helper = np.array([1.0, 0, 0]) if abs(w[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(helper, w)
+    u /= np.linalg.norm(u)
+    v = np.cross(w, u)
+    r = np.vstack([u, v, w])  # rows: new axes
+    t = -r @ np.asarray(origin, float)
+    return np.hstack([r, t[:, None]]), r
+
+
+# ---------------------------------------------------------------- validity rules
+@rule
+def watertight(c):
+    if not c.mesh.is_watertight:
+        return "mesh must be watertight", "open edges present"
+
+
+@rule
+def winding(c):
+    if not c.mesh.is_winding_consistent:
+        return "winding must be consistent", "inconsistent face winding"
+
+
+@rule
+def is_volume_positive(c):
+    v = c.mesh.volume
+    if not c.mesh.is_volume or v <= 0:
+        return "must be a positive volume (an inside-out mesh passes manifold status with negative volume)", f"is_volume={c.mesh.is_volume}, volume={v:.3f} mm3"
+
+
+@rule
+def manifold_status(c):
+    st = c.manifold.status()
+    if st != m3.Error.NoError:
+        return "manifold3d status must be NoError after merging STL vertices", str(st)
+    if c.manifold.volume() <= 0:
+        return "manifold3d volume must be positive", f"{c.manifold.volume():.3f} mm3"
+
+
+@rule
+def one_body(c):
+    n = len(c.manifold.decompose())
+    if n != 1:
+        return "a part must be one body", f"{n} bodies"
+
+
+@rule
+def no_self_overlap(c):
+    parts = c.manifold.decompose()
+    total = sum(p.volume() for p in parts)
+    union = m3.Manifold.batch_boolean(parts, m3.OpType.Add).volume() if len(parts) > 1 else parts[0].volume() if parts else 0.0
+    if abs(union - total) > 1e-6 * max(total, 1.0) or abs(c.mesh.volume - c.manifold.volume()) > 1e-4 * max(total, 1.0):
+        return "no self-overlap: union volume must equal the summed volume", f"union {union:.4f}, sum {total:.4f}, trimesh {c.mesh.volume:.4f} mm3"
+
+
+@rule
+def genus_matches(c):
+    g = c.manifold.genus()
+    want = c.entry.get("genus")
+    holes = c.features.get("holes")
+    expected = len(holes) if isinstance(holes, list) else want
+    if g != want or g != expected:
+        return "genus must equal the number of through holes", f"genus {g}, manifest {want}, holes {expected}"
+
+
+@rule
+def stl_and_3mf_agree(c):
+    if c.other is None:
+        return None
+    a, b = c.mesh, c.other
+    if len(a.faces) != len(b.faces) or abs(a.volume - b.volume) > 1e-6 * abs(a.volume) + 1e-6:
+        return "STL and 3MF must hold the same mesh", f"faces {len(a.faces)} vs {len(b.faces)}, volume {a.volume:.4f} vs {b.volume:.4f}"
+    if not np.allclose(np.sort(a.bounds, axis=0), np.sort(b.bounds, axis=0), atol=1e-5):
+        return "STL and 3MF must hold the same mesh", f"bounds {a.bounds.tolist()} vs {b.bounds.tolist()}"
+
+
+@rule
+def manifest_numbers(c):
+    v = c.entry.get("volume_mm3")
+    if v is None or abs(v - c.mesh.volume) > 1e-3 * abs(c.mesh.volume) + 0.01:
+        return "manifest volume must match the mesh", f"manifest {v}, mesh {c.mesh.volume:.3f} mm3"
+    if c.entry.get("triangles") != len(c.mesh.faces):
+        return "manifest triangle count must match the mesh", f"{c.entry.get('triangles')} vs {len(c.mesh.faces)}"
+
+
+def wall_losses(cs, r):
+    """Pieces that an opening by radius r removes and that are walls (not corner slivers)."""
+    opened = cs.offset(-r, m3.JoinType.Round, 2.0, 64).offset(r, m3.JoinType.Round, 2.0, 64)
+    lost = cs - opened
+    out = []
+    for piece in lost.decompose():
+        area = piece.area()
+        perim = 0.0
+        for poly in piece.to_polygons():
+            p = np.asarray(poly)
+            perim += np.linalg.norm(np.roll(p, -1, axis=0) - p, axis=1).sum()
+        width = area / max(perim / 2.0, 1e-12)
+        # a wall thinner than 2r is removed whole: its width estimate is its thickness and its area
+        # grows with its length; a convex corner loses a sliver of width ~0.12 r (90°) to ~0.3 r (50°).
+        if width > 0.45 * r and area > 0.5 * r * r:
+            c = np.asarray(piece.to_polygons()[0]).mean(axis=0)
+            out.append((width, area, c))
+    return out
+
+
+@rule
+def min_wall(c):
+    w = c.features.get("min_wall_mm")
+    if w is None:
+        return None
+    r = 0.5 * w - max(c.tol, 0.005)
+    mf = c.manifold
+    worst = None
+    rots = [np.eye(3), np.array([[0, 0, 1.0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1.0, 0], [0, 0, 1], [1, 0, 0]])]
+    for axis, rot in zip("zxy", rots):
+        t = np.hstack([rot, np.zeros((3, 1))])
+        turned = mf.transform(t)
+        lo, hi = turned.bounding_box()[2], turned.bounding_box()[5]
+        n = max(8, int((hi - lo) / 0.4))
+        for k in range(1, n):
+            z = lo + (hi - lo) * k / n
+            for width, area, cen in wall_losses(turned.slice(z), r):
+                if worst is None or width < worst[0]:
+                    worst = (width, area, axis, z, cen)
+    if worst:
+        width, area, axis, z, cen = worst
+        return f"minimum wall must be at least {w} mm", f"a wall of about {width:.2f} mm ({area:.2f} mm2 lost to a {2*r:.2f} mm opening) in the {axis}-slice at {z:.2f} mm near {np.round(cen, 2).tolist()}"
+
+
+# ---------------------------------------------------------------- dimensional rules
+def loop_around(cs, point):
+    """The smallest contour of a cross-section that contains `point` (2D)."""
+    best = None
+    for poly in cs.to_polygons():
+        p = np.asarray(poly)
+        if len(p) < 3:
+            continue
+        if trimesh.path.polygons.Polygon if False else True:
+            inside = point_in_poly(point, p)
+        if inside:
+            area = abs(poly_area(p))
+            if best is None or area < best[0]:
+                best = (area, p)
+    return best
+
+
+def point_in_poly(pt, p):
+    x, y = pt
+    inside = False
+    j = len(p) - 1
+    for i in range(len(p)):
+        xi, yi = p[i]
+        xj, yj = p[j]
+        if (yi > y) != (yj > y) and x < (xj - xi) * (y - yi) / (yj - yi + 1e-300) + xi:
+            inside = not inside
+        j = i
+    return inside
+
+
+def poly_area(p):
+    x, y = p[:, 0], p[:, 1]
+    return 0.5 * (np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+@rule
+def hole_diameters(c):
+    for i, h in enumerate(c.features.get("holes", []) or []):
+        t, _ = frame_to_z(h["axis_dir"], h["axis_point"])
+        cs = c.manifold.transform(t).slice(0.0)
+        found = loop_around(cs, (0.0, 0.0))
+        if found is None:
+            return "screw hole must be present", f"hole {i}: no contour around its axis"
+        d = 2 * math.sqrt(found[0] / math.pi)
+        if abs(d - h["diameter_mm"]) > 2 * c.tol + 2e-3:
+            return "hole diameter must match the parameter", f"hole {i}: {d:.4f} mm, expected {h['diameter_mm']} mm"
+
+
+def cast(mf, origin, direction, length=50.0):
+    o = np.asarray(origin, float)
+    e = o + np.asarray(direction, float) * length
+    hits = mf.ray_cast(o.tolist(), e.tolist())
+    return [hh.distance * length for hh in hits]
+
+
+@rule
+def seats(c):
+    for i, s in enumerate(c.features.get("seats", []) or []):
+        n = np.asarray(s["normal"], float)
+        fc = np.asarray(s["flat_center"], float)
+        _, r = frame_to_z(n, fc)
+        u, v = r[0], r[1]
+        away = np.asarray(s.get("channel_dir", [0, 0, 0]), float)
+        start = 5.0
+        # floor depth at the centre, flat plane on a ring between the pocket and the flat's rim
+        d_floor = cast(c.manifold, fc + n * start, -n)
+        if not d_floor:
+            return "seat pocket must be present", f"seat {i}: ray found no floor"
+        depth = d_floor[0] - start
+        if abs(depth - s["seat_depth_mm"]) > 2e-3 + c.tol * 0.1:
+            return "seat depth must match the parameter", f"seat {i}: {depth:.4f} mm, expected {s['seat_depth_mm']} mm"
+        rr = 0.5 * (s["seat_diameter_mm"] + s["flat_diameter_mm"]) / 2.0
+        heights = []
+        for k in range(24):
+            a = 2 * math.pi * k / 24
+            d = math.cos(a) * u + math.sin(a) * v
+            if np.dot(d, away) > 0.2:
+                continue  # the tail channel leaves the seat this way
+            hit = cast(c.manifold, fc + d * rr + n * start, -n)
+            if hit:
+                heights.append(hit[0] - start)
+        if not heights or max(abs(h) for h in heights) > c.tol + 2e-3:
+            return "seat must be flat within the chordal tolerance", f"seat {i}: ring heights {np.round(heights, 4).tolist()} mm"
+        # pocket diameter: slice at mid-depth, radius of the loop in directions away from the channel
+        t, _ = frame_to_z(n, fc - n * s["seat_depth_mm"] / 2)
+        found = loop_around(c.manifold.transform(t).slice(0.0), (0.0, 0.0))
+        if found is None:
+            return "seat pocket must be present", f"seat {i}: no contour at mid-depth"
+        p = found[1]
+        dirs3 = p[:, :1] * u + p[:, 1:2] * v
+        radii = np.linalg.norm(p, axis=1)
+        keep = (dirs3 @ away) < 0.2 * radii
+        if keep.sum() < 8:
+            return "seat pocket must be measurable", f"seat {i}: {keep.sum()} points"
+        rad = np.median(radii[keep])
+        if abs(2 * rad - s["seat_diameter_mm"]) > 2 * c.tol + 4e-3:
+            return "seat diameter must match the parameter", f"seat {i}: {2*rad:.4f} mm, expected {s['seat_diameter_mm']} mm"
+
+
+@rule
+def bounding_box(c):
+    f = c.features
+    if f.get("kind") != "fingertip":
+        return None
+    ext = c.mesh.bounds[1] - c.mesh.bounds[0]
+    slack = 2 * c.tol + 2e-3
+    w, t, l = f["width_mm"], f["thickness_mm"], f["length_mm"]
+    if abs(ext[0] - w) > slack or abs(ext[2] - l) > slack or not (t - f["max_channel_depth_mm"] - 1.0 <= ext[1] <= t + slack):
+        return "bounding box must match width x thickness x length", f"{np.round(ext, 4).tolist()} vs {[w, t, l]}"
+    if abs(c.mesh.bounds[0][2]) > 1e-6:
+        return "print orientation: the mount face must lie on the bed (z = 0)", f"min z {c.mesh.bounds[0][2]}"
+
+
+@rule
+def params_match_manifest(c):
+    if c.params is None:
+        return None
+    body = c.params.get("body")
+    if body and c.features.get("kind") == "fingertip":
+        for key, feat in (("width_mm", "width_mm"), ("length_mm", "length_mm"), ("thickness_mm", "thickness_mm")):
+            if abs(body[key] - c.features[feat]) > 1e-9:
+                return "manifest features must come from the parameter file", f"{key}: {body[key]} vs {c.features[feat]}"
+        sensors = c.params.get("sensor", [])
+        for i, (sp, sf) in enumerate(zip(sensors, c.features.get("seats", []))):
+            for key in ("seat_diameter_mm", "seat_depth_mm"):
+                if abs(sp[key] - sf[key]) > 1e-9:
+                    return "manifest features must come from the parameter file", f"sensor[{i}].{key}: {sp[key]} vs {sf[key]}"
+
+
+# ---------------------------------------------------------------- driver
+def load_3mf(path):
+    if not path.exists():
+        return None
+    scene = trimesh.load(str(path), file_type="3mf")
+    geoms = list(scene.geometry.values()) if hasattr(scene, "geometry") else [scene]
+    return trimesh.util.concatenate(geoms) if len(geoms) > 1 else geoms[0]
+
+
+def check_part(name, entry, root):
+    files = entry.get("files", [])
+    stl = [f for f in files if f.endswith(".stl")]
+    tmf = [f for f in files if f.endswith(".3mf")]
+    if not stl:
+        return [(name, "an STL must be listed", str(files))]
+    mesh = trimesh.load(str(root / stl[0]), process=True)
+    other = load_3mf(root / tmf[0]) if tmf else None
+    params = None
+    src = entry.get("source")
+    if src and Path(src).exists():
+        params = tomllib.loads(Path(src).read_text())
+    c = Ctx(name, entry, mesh, other, params, root)
+    out = []
+    for r in RULES:
+        try:
+            res = r(c)
+        except Exception as e:  # a rule that crashes is a failed rule, with its reason
+            res = (f"rule {r.__name__} could not run", repr(e))
+        if res:
+            out.append((name, res[0], res[1]))
+    return out
+
+
+def main(root):
+    root = Path(root)
+    man = json.loads((root / "manifest.json").read_text())
+    parts = man.get("parts", {})
+    if not parts:
+        print("no parts in manifest")
+        return 1
+    failures = []
+    for name, entry in sorted(parts.items()):
+        f = check_part(name, entry, root)
+        failures += f
+        print(f"{name}: {'ok' if not f else 'FAILED'} ({len(RULES)} rules)")
+    for name, rule_text, value in failures:
+        print(f"  {name}: {rule_text}: {value}")
+    print(f"{len(parts) - len({f[0] for f in failures})} passed, {len({f[0] for f in failures})} failed")
+    return 1 if failures else 0
+
+
+# ---------------------------------------------------------------- self-test
+def self_test():
+    """Each rule must fail on a mesh built to break it, and pass on a clean box."""
+    def ctx_for(mesh, entry=None, feats=None):
+        e = {"genus": 0, "volume_mm3": float(mesh.volume), "triangles": len(mesh.faces), "features": feats or {"min_wall_mm": 1.2, "holes": []}}
+        if entry:
+            e.update(entry)
+        return Ctx("t", e, mesh, None, None, Path("."))
+
+    box = trimesh.creation.box([10, 10, 10])
+    results = {}
+    clean = ctx_for(box)
+    bad_clean = [r.__name__ for r in RULES if r(clean)]
+    results["clean box passes every rule"] = not bad_clean
+    inv = box.copy()
+    inv.invert()
+    results["inside-out mesh fails is_volume_positive"] = bool(is_volume_positive(ctx_for(inv, {"volume_mm3": float(inv.volume)})))
+    opened = trimesh.Trimesh(box.vertices, box.faces[:-1], process=False)
+    results["open mesh fails watertight"] = bool(watertight(Ctx("t", {"features": {}}, opened, None, None, Path("."))))
+    two = trimesh.util.concatenate([box, box.copy().apply_translation([3, 0, 0])])
+    c2 = ctx_for(two)
+    results["overlapping shells fail no_self_overlap"] = bool(no_self_overlap(c2))
+    results["two bodies fail one_body"] = bool(one_body(c2))
+    thin = trimesh.boolean.difference([box, trimesh.creation.box([10, 9.4, 9.4]).apply_translation([0, 0.0, 0.0])], engine="manifold") if False else None
+    # a 10 mm cube hollowed to leave a 0.5 mm wall on one side
+    shell = m3.Manifold.cube([10, 10, 10]) - m3.Manifold.cube([8, 8, 8]).translate([1.5, 1, 1])
+    shell = trimesh.Trimesh(*_mesh_of(shell))
+    results["0.5 mm wall fails min_wall (1.2 mm)"] = bool(min_wall(ctx_for(shell, {"genus": 0})))
+    thick = m3.Manifold.cube([10, 10, 10]) - m3.Manifold.cube([6, 6, 6]).translate([2, 2, 2])
+    results["2 mm walls pass min_wall (1.2 mm)"] = not min_wall(ctx_for(trimesh.Trimesh(*_mesh_of(thick))))
+    holed = m3.Manifold.cube([10, 10, 4]) - m3.Manifold.cylinder(10, 1.2, 1.2, 64).translate([5, 5, -3])
+    hm = trimesh.Trimesh(*_mesh_of(holed))
+    feats = {"min_wall_mm": 1.2, "holes": [{"axis_point": [5, 5, 2], "axis_dir": [0, 0, 1], "diameter_mm": 2.4}]}
+    results["a hole without its genus fails genus_matches"] = bool(genus_matches(ctx_for(hm, {"genus": 0}, feats)))
+    feats_wrong = {"min_wall_mm": 1.2, "holes": [{"axis_point": [5, 5, 2], "axis_dir": [0, 0, 1], "diameter_mm": 3.0}]}
+    results["a 2.4 mm hole fails a 3.0 mm nominal"] = bool(hole_diameters(ctx_for(hm, {"genus": 1}, feats_wrong)))
+    results["a 2.4 mm hole passes a 2.4 mm nominal"] = not hole_diameters(ctx_for(hm, {"genus": 1}, feats))
+    ok = all(results.values())
+    for k, v in results.items():
+        print(f"{'ok  ' if v else 'FAIL'} {k}")
+    if bad_clean:
+        print("rules failing on the clean box:", bad_clean)
+    print(f"{sum(results.values())} passed, {len(results) - sum(results.values())} failed")
+    return 0 if ok else 1
+
+
+def _mesh_of(mf):
+    mm = mf.to_mesh()
+    return np.asarray(mm.vert_properties)[:, :3], np.asarray(mm.tri_verts)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1] == "--self-test":
+        sys.exit(self_test())
+    sys.exit(main(sys.argv[1] if len(sys.argv) > 1 else "out"))
