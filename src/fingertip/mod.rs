@@ -10,8 +10,9 @@ use crate::part::Part;
 use serde_json::json;
 pub use shape::Shape;
 
-/// Size of the 45° edge break at the top of a counterbore (mm).
-pub const EDGE_BREAK_MM: f64 = 0.5;
+/// Steepest dorsal slope (degrees) a head recess may break out on: its downhill lip is a wedge of
+/// 90° minus that slope.
+pub const MAX_RECESS_SLOPE_DEG: f64 = 30.0;
 
 /// Where a seat ends up: the flat plane and the pocket, in the design frame.
 #[derive(Debug, Clone)]
@@ -140,15 +141,37 @@ fn socket_box(p: &FingertipParams) -> (P3, P3) {
     )
 }
 
-/// Head recess floor height at a hole (design frame z), and its diameter at that height.
-fn head_floor(shape: &Shape, p: &FingertipParams, x: f64, y: f64) -> Option<f64> {
-    let top = shape.z_dorsal(x, y)?;
+/// Half-width of the body at (x, z): where the flank is.
+pub fn flank_y(shape: &Shape, x: f64, z: f64) -> Option<f64> {
+    let r = shape.r(x);
+    let zr = if z >= 0.0 { z * shape.pad_depth / shape.dorsal_height } else { z };
+    let q = 1.0 - (zr / r).powi(2);
+    (r > 0.0 && q >= 0.0).then(|| shape.lateral * r * q.sqrt())
+}
+
+/// |y| of the head recess floor of a cross hole at (x, z).
+fn head_floor(shape: &Shape, p: &FingertipParams, x: f64, z: f64) -> Option<f64> {
+    let side = flank_y(shape, x, z)?;
     let m = &p.mount;
     Some(match m.head {
-        Head::None => top,
-        Head::Counterbore => top - m.head_depth_mm,
-        Head::Countersink => top - (m.head_diameter_mm - m.hole_diameter_mm) / 2.0 - m.head_depth_mm,
+        Head::None => side,
+        Head::Counterbore => side - m.head_depth_mm,
+        Head::Countersink => side - (m.head_diameter_mm - m.hole_diameter_mm) / 2.0 - m.head_depth_mm,
     })
+}
+
+/// Slope (degrees) of the flank, against the plane square to a cross hole, around the recess rim.
+fn rim_slope_deg(shape: &Shape, x: f64, z: f64, rh: f64) -> Option<f64> {
+    let mut worst: f64 = 0.0;
+    for k in 0..16 {
+        let a = 2.0 * std::f64::consts::PI * k as f64 / 16.0;
+        let (px, pz) = (x + rh * a.cos(), z + rh * a.sin());
+        let e = 0.01;
+        let dz = (flank_y(shape, px, pz + e)? - flank_y(shape, px, pz - e)?) / (2.0 * e);
+        let dx = (flank_y(shape, px + e, pz)? - flank_y(shape, (px - e).max(0.0), pz)?) / (2.0 * e);
+        worst = worst.max((dz * dz + dx * dx).sqrt().atan().to_degrees());
+    }
+    Some(worst)
 }
 
 /// Rules that need the body shape. Returns (path, value, message) for each problem.
@@ -270,45 +293,60 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
         }
     }
 
-    // holes
-    let rr = m.hole_diameter_mm.max(m.head_diameter_mm) / 2.0 + if m.head == Head::Counterbore { EDGE_BREAK_MM } else { 0.0 };
+    // cross holes: along y through both side walls and the socket, a head recess on each flank
+    let rr = m.hole_diameter_mm.max(m.head_diameter_mm) / 2.0;
+    let r = m.hole_diameter_mm / 2.0;
     for (i, h) in m.holes.iter().enumerate() {
         let path = format!("mount.holes[{i}]");
         let val = format!("[{}, {}]", h[0], h[1]);
-        let r = m.hole_diameter_mm / 2.0;
-        if h[0] - r < 0.0 || h[0] + r > m.socket_depth_mm || h[1].abs() + r > m.socket_width_mm / 2.0 {
-            push(path.clone(), val.clone(), format!("the hole ({} mm) must open into the socket (x from 0 to {}, |y| up to {} mm)", m.hole_diameter_mm, m.socket_depth_mm, m.socket_width_mm / 2.0));
+        let (x, z) = (h[0], h[1]);
+        if x - r < 0.0 || x + r > m.socket_depth_mm || z - r < sb_lo[2] || z + r > sb_hi[2] {
+            push(path.clone(), val.clone(), format!("the cross hole ({} mm) must pass through the socket: x from {r} to {}, z from {} to {} mm", m.hole_diameter_mm, m.socket_depth_mm - r, sb_lo[2] + r, sb_hi[2] - r));
             continue;
         }
-        match head_floor(&shape, p, h[0], h[1]) {
-            None => push(path.clone(), val.clone(), "the hole is not under the dorsal surface".into()),
-            Some(fz) => {
-                let grip = fz - sb_hi[2];
+        if x - rr < wall {
+            push(path.clone(), val.clone(), format!("the head recess ({} mm) leaves {:.2} mm to the mount face (minimum {wall} mm): move the hole to x ≥ {:.2}", m.head_diameter_mm, x - rr, rr + wall));
+        }
+        match (head_floor(&shape, p, x, z), rim_slope_deg(&shape, x, z, rr)) {
+            (Some(fy), Some(slope)) => {
+                let grip = fy - m.socket_width_mm / 2.0;
                 if grip < wall {
-                    push("mount.head_depth_mm".into(), m.head_depth_mm.to_string(), format!("hole {i}: the head recess leaves {grip:.2} mm of material above the socket (minimum {wall} mm)"));
+                    push("mount.head_depth_mm".into(), m.head_depth_mm.to_string(), format!("hole {i}: the head recess leaves {grip:.2} mm of side wall beside the socket (minimum {wall} mm): make it shallower or the socket narrower"));
                 }
-                let hw = shape.half_width(h[0]) * (1.0 - (fz.max(0.0) / shape.dorsal_height.max(1e-9) / (shape.r(h[0]) / shape.pad_depth)).powi(2)).max(0.0).sqrt();
-                let rh = m.hole_diameter_mm.max(m.head_diameter_mm) / 2.0;
-                if h[1].abs() + rh + wall > hw {
-                    push(path.clone(), val.clone(), format!("the screw head recess ({} mm) comes within {:.2} mm of the side (minimum {wall} mm)", m.head_diameter_mm, hw - h[1].abs() - rh));
+                if m.head != Head::None && slope > MAX_RECESS_SLOPE_DEG {
+                    push(path.clone(), val.clone(), format!("the head recess breaks out where the flank slopes {slope:.0}° (at most {MAX_RECESS_SLOPE_DEG}°), leaving a sharp, thin lip: move the hole toward the mid-plane (z = 0)"));
                 }
             }
+            _ => push(path.clone(), val.clone(), "the head recess runs off the flank of the body".into()),
         }
         for (j, g) in m.holes.iter().enumerate().skip(i + 1) {
-            let d = ((h[0] - g[0]).powi(2) + (h[1] - g[1]).powi(2)).sqrt();
+            let d = ((x - g[0]).powi(2) + (z - g[1]).powi(2)).sqrt();
             if d < 2.0 * rr + wall {
                 push(format!("mount.holes[{j}]"), format!("[{}, {}]", g[0], g[1]), format!("too close to hole {i}: {d:.2} mm apart, at least {:.2} mm", 2.0 * rr + wall));
             }
         }
+        // seats and tail channels keep a minimum wall to the hole and its recesses
         for (k, s) in p.sensors.iter().enumerate() {
-            let (cx, cy) = (shape.length - s.position_from_tip_mm, s.lateral_offset_mm);
-            let d = ((h[0] - cx).powi(2) + (h[1] - cy).powi(2)).sqrt();
-            if d < m.hole_diameter_mm / 2.0 + s.flat_diameter_mm / 2.0 {
-                push(path.clone(), val.clone(), format!("the screw hole lies over sensor[{k}]'s seat (plan view, {d:.2} mm between centres): a long screw would reach the sensor"));
+            let mut pts = Vec::new();
+            if let Some(Some(st)) = seats.get(k) {
+                let (u, v, _) = frame(st.normal);
+                let rf = s.flat_diameter_mm / 2.0;
+                for j in 0..32 {
+                    let a = 2.0 * std::f64::consts::PI * j as f64 / 32.0;
+                    pts.push(add(st.flat_center, add(scale(u, rf * a.cos()), scale(v, rf * a.sin()))));
+                }
+                pts.push(st.floor_center);
             }
-            // a screw longer than planned goes through the socket floor: it must not land in the tail channel
-            if path_distance(&channel_path(&shape, s), *h) < m.hole_diameter_mm / 2.0 + s.channel_width_mm / 2.0 {
-                push(path.clone(), val.clone(), format!("the screw hole lies over sensor[{k}]'s tail channel (plan view): a long screw would cut the tail; move it sideways"));
+            for (q, _) in along(&channel_path(&shape, s), 0.25) {
+                for side in [-1.0, 1.0] {
+                    if let Some(fp) = floor_point(&shape, s, q[0].max(0.0), q[1] + side * s.channel_width_mm / 2.0) {
+                        pts.push(fp);
+                    }
+                }
+            }
+            let near = pts.iter().map(|q| ((q[0] - x).powi(2) + (q[2] - z).powi(2)).sqrt() - rr).fold(f64::INFINITY, f64::min);
+            if near < wall {
+                push(path.clone(), val.clone(), format!("the cross hole and its recesses come within {near:.2} mm of sensor[{k}]'s seat or tail channel (minimum {wall} mm)"));
             }
         }
     }
@@ -381,43 +419,33 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
     let (sb_lo, sb_hi) = socket_box(p);
     cutters.push(Solid::cuboid(sb_lo, sb_hi));
     let mut hole_features = Vec::new();
-    let top = shape.dorsal_height + 2.0;
+    let far = p.body.width_mm / 2.0 + 2.0;
     for (i, h) in m.holes.iter().enumerate() {
+        let (x, z) = (h[0], h[1]);
         let r = m.hole_diameter_mm / 2.0;
-        let base = [h[0], h[1], sb_hi[2] - 0.5];
-        cutters.push(Solid::cylinder(base, [0.0, 0.0, 1.0], top - base[2], r, r, segments(r, tol)));
-        let fz = head_floor(&shape, p, h[0], h[1]).ok_or_else(|| Error::geometry(name, format!("hole {i} is off the body")))?;
+        cutters.push(Solid::cylinder([x, -far, z], [0.0, 1.0, 0.0], 2.0 * far, r, r, segments(r, tol)));
+        let fy = head_floor(&shape, p, x, z).ok_or_else(|| Error::geometry(name, format!("hole {i} is off the body")))?;
         let rh = m.head_diameter_mm / 2.0;
-        match m.head {
-            Head::None => {}
-            Head::Counterbore => {
-                // straight counterbore up to just below the lowest point of its rim, then a 45° chamfer
-                let rim_low = (0..32)
-                    .filter_map(|k| {
-                        let a = 2.0 * std::f64::consts::PI * k as f64 / 32.0;
-                        shape.z_dorsal(h[0] + rh * a.cos(), h[1] + rh * a.sin())
-                    })
-                    .fold(f64::INFINITY, f64::min);
-                // a 45° edge break of EDGE_BREAK_MM starting just below the rim's lowest point, so the
-                // downhill lip of the recess is not a sharp wedge; above it a wider straight bore
-                let start = (rim_low - fz - 0.2).max(0.5 * m.head_depth_mm);
-                cutters.push(Solid::cylinder([h[0], h[1], fz], [0.0, 0.0, 1.0], start, rh, rh, segments(rh, tol)));
-                cutters.push(Solid::cylinder([h[0], h[1], fz + start - 1e-3], [0.0, 0.0, 1.0], EDGE_BREAK_MM, rh, rh + EDGE_BREAK_MM, segments(rh + EDGE_BREAK_MM, tol)));
-                let z2 = fz + start + EDGE_BREAK_MM - 2e-3;
-                cutters.push(Solid::cylinder([h[0], h[1], z2], [0.0, 0.0, 1.0], top - z2, rh + EDGE_BREAK_MM, rh + EDGE_BREAK_MM, segments(rh + EDGE_BREAK_MM, tol)));
+        for sgn in [-1.0, 1.0] {
+            let dir = [0.0, sgn, 0.0];
+            let at = |y: f64| [x, sgn * y, z];
+            match m.head {
+                Head::None => {}
+                Head::Counterbore => cutters.push(Solid::cylinder(at(fy), dir, far - fy, rh, rh, segments(rh, tol))),
+                Head::Countersink => {
+                    let cone_h = rh - r;
+                    cutters.push(Solid::cylinder(at(fy), dir, cone_h, r, rh, segments(rh, tol)));
+                    cutters.push(Solid::cylinder(at(fy + cone_h - 1e-3), dir, far - fy - cone_h, rh, rh, segments(rh, tol)));
+                }
             }
-            Head::Countersink => {
-                let cone_h = rh - r;
-                cutters.push(Solid::cylinder([h[0], h[1], fz], [0.0, 0.0, 1.0], cone_h, r, rh, segments(rh, tol)));
-                cutters.push(Solid::cylinder([h[0], h[1], fz + cone_h - 1e-3], [0.0, 0.0, 1.0], top - fz - cone_h, rh, rh, segments(rh, tol)));
-            }
+            let wall_mid = 0.5 * (m.socket_width_mm / 2.0 + fy);
+            hole_features.push(json!({
+                "axis_point": to_print(at(wall_mid)),
+                "axis_dir": to_print(dir),
+                "diameter_mm": m.hole_diameter_mm,
+                "wall_mm": fy - m.socket_width_mm / 2.0,
+            }));
         }
-        hole_features.push(json!({
-            "axis_point": to_print([h[0], h[1], sb_hi[2] + 0.5 * (fz - sb_hi[2])]),
-            "axis_dir": to_print([0.0, 0.0, 1.0]),
-            "diameter_mm": m.hole_diameter_mm,
-            "length_mm": fz - sb_hi[2],
-        }));
     }
     let cutter = Solid::union_all(&cutters).expect("a fingertip has at least the socket cutter");
     let (solid, _) = body.difference(&cutter).drop_slivers(1e-6);
@@ -430,7 +458,7 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
         name: name.to_string(),
         mesh,
         solid,
-        expected_genus: m.holes.len() as i32,
+        expected_genus: 2 * m.holes.len() as i32,
         density_g_cm3: p.print.density_g_cm3,
         infill: 1.0,
         write_3mf: true,

@@ -132,7 +132,8 @@ pub struct Mount {
     pub socket_depth_mm: f64,
     pub socket_center_z_mm: f64,
     pub hole_diameter_mm: f64,
-    /// (x from the mount face, y lateral) of each screw hole; holes run from the dorsal side into the socket.
+    /// (x from the mount face, z height) of each cross hole; a cross hole runs along y through both
+    /// side walls and the socket, with a head recess on each flank (one screw from each side).
     pub holes: Vec<[f64; 2]>,
     pub head: Head,
     pub head_diameter_mm: f64,
