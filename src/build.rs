@@ -14,6 +14,8 @@ pub struct Options {
     pub out_dir: PathBuf,
     /// Build only these file stems (empty: all).
     pub only: Vec<String>,
+    /// Also write `<part>.png` previews.
+    pub preview: bool,
 }
 
 /// What one built part reports in the summary.
@@ -128,12 +130,20 @@ pub fn run(opts: &Options) -> Result<Report> {
                 files.push(format!("{}.3mf", part.name));
                 staged.add(opts.out_dir.join(&files[1]), threemf::to_bytes(&[(&part.name, &part.mesh)]));
             }
+            if opts.preview {
+                files.push(format!("{}.png", part.name));
+                staged.add(opts.out_dir.join(format!("{}.png", part.name)), crate::preview::render(&part.mesh, &part.name));
+            }
             entries.insert(part.name.clone(), manifest::entry(part, &l.rel, &sha, &files));
             summaries.push(Summary { name: part.name.clone(), triangles: part.mesh.triangles.len(), volume_mm3: part.volume_mm3(), mass_g: part.mass_g(), millis: per_part_ms });
         }
         for a in &assemblies {
             let objs: Vec<(&str, &crate::mesh::Mesh)> = a.parts.iter().map(|(n, m)| (n.as_str(), m)).collect();
             staged.add(opts.out_dir.join(format!("{}.3mf", a.name)), threemf::to_bytes(&objs));
+            if opts.preview {
+                let merged = crate::mesh::Mesh::merge(a.parts.iter().map(|(_, m)| m));
+                staged.add(opts.out_dir.join(format!("{}.png", a.name)), crate::preview::render(&merged, &a.name));
+            }
         }
     }
     if !violations.is_empty() {

@@ -9,3 +9,4 @@ pub mod fingertip;
 pub mod mesh;
 pub mod params;
 pub mod part;
+pub mod preview;

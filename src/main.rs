@@ -23,6 +23,9 @@ enum Cmd {
         out: PathBuf,
         /// Only these parameter file stems (e.g. fingertip-1s).
         parts: Vec<String>,
+        /// Also write a shaded PNG preview of every part (out/<part>.png).
+        #[arg(long)]
+        preview: bool,
     },
 }
 
@@ -40,8 +43,8 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.cmd {
-        Cmd::Build { params, out, parts } => {
-            let report = tipforge::build::run(&tipforge::build::Options { params_dir: params, out_dir: out, only: parts })?;
+        Cmd::Build { params, out, parts, preview } => {
+            let report = tipforge::build::run(&tipforge::build::Options { params_dir: params, out_dir: out, only: parts, preview })?;
             for (f, why) in &report.skipped {
                 println!("skipped {f}: {why}");
             }

@@ -42,6 +42,16 @@ impl Mesh {
     pub fn map(&self, f: impl Fn(P3) -> P3) -> Mesh {
         Mesh { vertices: self.vertices.iter().map(|&p| f(p)).collect(), triangles: self.triangles.clone() }
     }
+    /// Concatenates meshes (for viewing; the result may hold several shells).
+    pub fn merge<'a>(meshes: impl Iterator<Item = &'a Mesh>) -> Mesh {
+        let mut out = Mesh::default();
+        for m in meshes {
+            let base = out.vertices.len() as u32;
+            out.vertices.extend_from_slice(&m.vertices);
+            out.triangles.extend(m.triangles.iter().map(|t| t.map(|i| i + base)));
+        }
+        out
+    }
     /// Rounds coordinates to f32, as every exported file stores them.
     pub fn to_f32(&self) -> Vec<[f32; 3]> {
         self.vertices.iter().map(|v| [v[0] as f32, v[1] as f32, v[2] as f32]).collect()
@@ -218,7 +228,7 @@ pub fn frame(w: P3) -> (P3, P3, P3) {
 pub fn tessellate(solid: &truck_modeling::Solid, tol: f64, what: &str) -> Result<Mesh> {
     use truck_meshalgo::prelude::*;
     let mut poly = solid.triangulation(tol).to_polygon();
-    poly.put_together_same_attrs(1e-7);
+    poly.put_together_same_attrs(1e-5);
     let vertices: Vec<P3> = poly.positions().iter().map(|p| [p.x, p.y, p.z]).collect();
     let mut triangles = Vec::with_capacity(poly.faces().len());
     for tri in poly.faces().triangle_iter() {

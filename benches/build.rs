@@ -1,0 +1,35 @@
+//! `cargo bench --bench build`: median wall time to build the default parts from their parameter
+//! files (parse, validate, model, boolean, mesh, checks; no file writing), at the chordal
+//! tolerance in the files (0.01 mm by default).
+
+use std::path::PathBuf;
+use std::time::Instant;
+use tipforge::build::{build_job, load_all, Options};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    v[v.len() / 2]
+}
+
+fn main() {
+    let runs: usize = std::env::var("TIPFORGE_BENCH_RUNS").ok().and_then(|s| s.parse().ok()).unwrap_or(15);
+    let groups: Vec<(&str, Vec<String>)> = vec![("both fingertips", vec!["fingertip-1s".into(), "fingertip-2s".into()])];
+    println!("{:<28} {:>6} {:>12} {:>12} {:>12}", "group", "runs", "median ms", "min ms", "max ms");
+    for (label, only) in groups {
+        let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only, preview: false };
+        let mut times = Vec::new();
+        for _ in 0..runs {
+            let t0 = Instant::now();
+            let (loaded, _) = load_all(&opts).expect("params load");
+            for l in &loaded {
+                let (parts, _) = build_job(&l.job).expect("build");
+                for p in &parts {
+                    assert!(tipforge::checks::run(p).is_empty());
+                }
+            }
+            times.push(t0.elapsed().as_secs_f64() * 1000.0);
+        }
+        let (mn, mx) = (times.iter().cloned().fold(f64::INFINITY, f64::min), times.iter().cloned().fold(0.0, f64::max));
+        println!("{:<28} {:>6} {:>12.1} {:>12.1} {:>12.1}", label, runs, median(times), mn, mx);
+    }
+}

@@ -1,0 +1,114 @@
+//! The CLI on bad input: every problem listed with file:line, path, value and fix; exit code 2;
+//! nothing written; never a panic.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("tipforge-cli-{}-{}", name, std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(d.join("params")).unwrap();
+    d
+}
+
+fn run(d: &Path) -> (i32, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_tipforge")).args(["build", "--params"]).arg(d.join("params")).arg("--out").arg(d.join("out")).output().unwrap();
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(!text.contains("panicked"), "{text}");
+    (o.status.code().unwrap_or(-1), text)
+}
+
+fn default_text() -> String {
+    std::fs::read_to_string("params/fingertip-1s.toml").unwrap()
+}
+
+#[test]
+fn many_problems_are_reported_at_once_with_lines() {
+    let d = dir("many");
+    let t = default_text()
+        .replace("width_mm = 16.0", "width_mm = -16.0")
+        .replace("seat_depth_mm = 0.3", "seat_depth_mm = 0.0")
+        .replace("chordal_tolerance_mm = 0.01", "chordal_tolerance_mm = 0.5")
+        .replace("length_mm = 28.0", "lenght_mm = 28.0");
+    std::fs::write(d.join("params/f.toml"), &t).unwrap();
+    let (code, text) = run(&d);
+    assert_eq!(code, 2, "{text}");
+    // unknown key first (reported with its suggestion) — it blocks the typed pass
+    assert!(text.contains("body.lenght_mm") && text.contains("did you mean `length_mm`"), "{text}");
+    assert!(!d.join("out").exists(), "nothing may be written");
+    // with the typo fixed, every semantic problem is listed together
+    std::fs::write(d.join("params/f.toml"), t.replace("lenght_mm", "length_mm")).unwrap();
+    let (code, text) = run(&d);
+    assert_eq!(code, 2);
+    for needle in ["body.width_mm = -16", "sensor[0].seat_depth_mm = 0", "print.chordal_tolerance_mm = 0.5", "between 0.001 and 0.05"] {
+        assert!(text.contains(needle), "missing {needle:?} in:\n{text}");
+    }
+    assert!(text.contains("f.toml:") && text.lines().filter(|l| l.contains("f.toml:")).count() >= 3, "{text}");
+    assert!(!d.join("out").exists());
+}
+
+#[test]
+fn syntax_error_names_line_and_column() {
+    let d = dir("syntax");
+    std::fs::write(d.join("params/f.toml"), default_text().replace("width_mm = 16.0", "width_mm = = 16.0")).unwrap();
+    let (code, text) = run(&d);
+    assert_eq!(code, 2);
+    assert!(text.contains("f.toml:") && text.contains("TOML syntax"), "{text}");
+}
+
+#[test]
+fn geometric_rules_name_the_offending_key() {
+    let cases: Vec<(&str, &str, &str)> = vec![
+        ("[[sensor]]", "", "1 or 2 sensors"),
+        ("position_from_tip_mm = 9.0", "position_from_tip_mm = 27.0", "sensor[0].position_from_tip_mm"),
+        ("lateral_offset_mm = 0.0", "lateral_offset_mm = 5.0", "flat region"),
+        ("seat_depth_mm = 0.3", "seat_depth_mm = 12.5", "seat pocket leaves a wall"),
+        ("holes = [[5.0, 1.0]]", "holes = [[5.0, 1.0], [7.0, 1.0]]", "too close to hole 0"),
+        ("holes = [[5.0, 1.0]]", "holes = [[12.0, 1.0]]", "must pass through the socket"),
+        ("socket_width_mm = 10.0", "socket_width_mm = 15.0", "mount.socket_width_mm"),
+        ("head_depth_mm = 1.2", "head_depth_mm = 2.5", "mount.head_depth_mm"),
+        ("channel_offset_mm = 0.0", "channel_offset_mm = 7.0", "runs off the pad"),
+    ];
+    for (i, (from, to, needle)) in cases.iter().enumerate() {
+        let d = dir(&format!("geo{i}"));
+        let mut t = default_text();
+        if to.is_empty() {
+            // remove the sensor table entirely
+            let a = t.find("[[sensor]]").unwrap();
+            let b = t.find("\n[mount]").unwrap();
+            t.replace_range(a..b, "");
+        } else {
+            assert!(t.contains(from), "fixture lacks {from}");
+            t = t.replacen(from, to, 1);
+        }
+        std::fs::write(d.join("params/f.toml"), t).unwrap();
+        let (code, text) = run(&d);
+        assert_eq!(code, 2, "case {i}: {text}");
+        assert!(text.contains(needle), "case {i}: expected {needle:?} in\n{text}");
+        assert!(!d.join("out").exists());
+    }
+}
+
+#[test]
+fn failed_build_leaves_previous_output_untouched() {
+    let d = dir("keep");
+    std::fs::write(d.join("params/f.toml"), default_text()).unwrap();
+    let (code, _) = run(&d);
+    assert_eq!(code, 0);
+    let before = std::fs::read(d.join("out/f.stl")).unwrap();
+    std::fs::write(d.join("params/f.toml"), default_text().replace("width_mm = 16.0", "width_mm = 0")).unwrap();
+    let (code, _) = run(&d);
+    assert_eq!(code, 2);
+    assert_eq!(std::fs::read(d.join("out/f.stl")).unwrap(), before);
+}
+
+#[test]
+fn missing_kind_and_unknown_kind_are_input_errors() {
+    let d = dir("kind");
+    std::fs::write(d.join("params/a.toml"), default_text().replace("kind = \"fingertip\"", "")).unwrap();
+    std::fs::write(d.join("params/b.toml"), default_text().replace("kind = \"fingertip\"", "kind = \"fingertop\"")).unwrap();
+    let (code, text) = run(&d);
+    assert_eq!(code, 2);
+    assert!(text.contains("a.toml") && text.contains("add a top-level `kind"), "{text}");
+    assert!(text.contains("b.toml") && text.contains("unknown kind"), "{text}");
+}

@@ -1,0 +1,147 @@
+//! Property tests: random parameter files. Valid ones build into one closed body of the expected
+//! genus that passes every check; invalid ones give input errors naming a path — never a panic.
+
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use tipforge::error::Error;
+use tipforge::params::{fingertip::FingertipParams, SourceFile};
+
+#[derive(Debug, Clone)]
+struct Gen {
+    length: f64,
+    width: f64,
+    thickness: f64,
+    pad_frac: f64,
+    r_long: f64,
+    tip_frac: f64,
+    two: bool,
+    pos: [f64; 2],
+    lat: f64,
+    seat_d: f64,
+    depth: f64,
+    flat_extra: f64,
+    ch_w: f64,
+    ch_d: f64,
+    ch_off: f64,
+    socket: [f64; 4],
+    holes: Vec<[f64; 2]>,
+    head: u8,
+    tol: f64,
+}
+
+fn gen() -> impl Strategy<Value = Gen> {
+    (
+        (24.0..34.0f64, 14.0..19.0f64, 12.0..17.0f64, 0.33..0.45f64, 25.0..80.0f64, 0.5..0.95f64),
+        (any::<bool>(), 6.0..12.0f64, 15.0..20.0f64, -1.0..1.0f64, 7.0..9.5f64, 0.1..0.6f64, 0.2..1.2f64),
+        (1.0..3.0f64, 0.2..0.8f64, -0.5..0.5f64),
+        (7.0..10.5f64, 3.5..5.0f64, 7.0..11.0f64, 0.0..1.5f64),
+        (proptest::collection::vec((4.0..9.0f64, 0.0..1.5f64), 0..3), 0u8..3, 0.005..0.03f64),
+    )
+        .prop_map(|(b, s, c, m, h)| Gen {
+            length: b.0,
+            width: b.1,
+            thickness: b.2,
+            pad_frac: b.3,
+            r_long: b.4,
+            tip_frac: b.5,
+            two: s.0,
+            pos: [s.1, s.2],
+            lat: s.3,
+            seat_d: s.4,
+            depth: s.5,
+            flat_extra: s.6,
+            ch_w: c.0,
+            ch_d: c.1,
+            ch_off: c.2,
+            socket: [m.0, m.1, m.2, m.3],
+            holes: h.0.into_iter().map(|(x, z)| [x, z]).collect(),
+            head: h.1,
+            tol: h.2,
+        })
+}
+
+fn toml_of(g: &Gen) -> String {
+    let pad_depth = g.pad_frac * g.thickness;
+    let r_trans = (g.width / 2.0).powi(2) / pad_depth;
+    let mut t = format!(
+        "kind = \"fingertip\"\n[body]\nlength_mm = {}\nwidth_mm = {}\nthickness_mm = {}\npad_longitudinal_radius_mm = {}\npad_transverse_radius_mm = {}\ntip_radius_mm = {}\n",
+        g.length, g.width, g.thickness, g.r_long, r_trans, g.tip_frac * pad_depth
+    );
+    let sensors: Vec<(f64, f64, f64)> = if g.two {
+        vec![(g.pos[0], 0.0, g.width * 0.35), (g.pos[1], 0.0, -g.width * 0.35)]
+    } else {
+        vec![(g.pos[0] + 2.0, g.lat, g.lat + g.ch_off)]
+    };
+    for (pos, lat, off) in sensors {
+        t += &format!(
+            "[[sensor]]\nposition_from_tip_mm = {pos}\nlateral_offset_mm = {lat}\nseat_diameter_mm = {}\nseat_depth_mm = {}\nflat_diameter_mm = {}\ndome_diameter_mm = {}\ndome_height_mm = 1.0\nchannel_width_mm = {}\nchannel_depth_mm = {}\nchannel_offset_mm = {off}\n",
+            g.seat_d, g.depth, g.seat_d + g.flat_extra, g.seat_d - 0.5, if g.two { g.ch_w.min(1.6) } else { g.ch_w }, g.ch_d
+        );
+    }
+    let holes: Vec<String> = g.holes.iter().map(|h| format!("[{}, {}]", h[0], h[1])).collect();
+    t += &format!(
+        "[mount]\nsocket_width_mm = {}\nsocket_height_mm = {}\nsocket_depth_mm = {}\nsocket_center_z_mm = {}\nhole_diameter_mm = 2.4\nholes = [{}]\nhead = \"{}\"\nhead_diameter_mm = 4.0\nhead_depth_mm = 1.0\n",
+        g.socket[0], g.socket[1], g.socket[2], g.socket[3], holes.join(", "), ["counterbore", "countersink", "none"][g.head as usize]
+    );
+    t += &format!("[print]\nmin_wall_mm = 1.2\nchordal_tolerance_mm = {}\n", g.tol);
+    t
+}
+
+#[test]
+fn random_parameter_sets_build_valid_meshes_or_clear_errors() {
+    let valid = AtomicUsize::new(0);
+    let invalid = AtomicUsize::new(0);
+    let cases: u32 = std::env::var("TIPFORGE_PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(800);
+    // a fixed seed: the same parameter sets on every machine, so the count of valid sets is stable
+    let mut runner = TestRunner::new_with_rng(Config { cases, failure_persistence: None, ..Config::default() }, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
+    runner
+        .run(&gen(), |g| {
+            let text = toml_of(&g);
+            let src = SourceFile::parse("random.toml", text.clone()).expect("generated TOML parses");
+            match FingertipParams::from_source(&src, "random") {
+                Ok(p) => {
+                    let part = tipforge::fingertip::build(&p).map_err(|e| TestCaseError::fail(format!("valid params failed to build: {e}\n{text}")))?;
+                    let v = tipforge::checks::run(&part);
+                    prop_assert!(v.is_empty(), "checks failed: {:?}\n{}", v, text);
+                    prop_assert_eq!(part.solid.genus(), 2 * p.mount.holes.len() as i32);
+                    prop_assert!(part.volume_mm3() > 0.0);
+                    valid.fetch_add(1, Ordering::Relaxed);
+                }
+                Err(Error::Input(problems)) => {
+                    prop_assert!(!problems.0.is_empty());
+                    for pr in &problems.0 {
+                        prop_assert!(!pr.path.is_empty() && !pr.message.is_empty());
+                    }
+                    invalid.fetch_add(1, Ordering::Relaxed);
+                }
+                Err(e) => return Err(TestCaseError::fail(format!("unexpected error kind: {e}"))),
+            }
+            Ok(())
+        })
+        .unwrap();
+    let (v, i) = (valid.load(Ordering::Relaxed), invalid.load(Ordering::Relaxed));
+    println!("random fingertips: {v} valid built and checked, {i} rejected with input errors");
+    assert!(v >= 200 || cases < 800, "only {v} valid random parameter sets of {cases}; widen the generator");
+    assert!(i >= 10 || cases < 800, "the generator must also produce invalid sets ({i})");
+}
+
+#[test]
+fn corrupted_files_never_panic() {
+    let base = std::fs::read_to_string("params/fingertip-2s.toml").unwrap();
+    let mut runner = TestRunner::new(Config { cases: 300, failure_persistence: None, ..Config::default() });
+    runner
+        .run(&(0usize..base.len(), prop::sample::select(vec!["-", "0", "1e9", "nan", "\"x\"", "[", "=", "\n[[sensor]]\n", ""]), 0usize..40), |(at, ins, del)| {
+            let mut t = base.clone();
+            let at = (0..=at).rev().find(|&i| t.is_char_boundary(i)).unwrap_or(0);
+            let end = (at..=(at + del).min(t.len())).rev().find(|&i| t.is_char_boundary(i)).unwrap_or(at);
+            t.replace_range(at..end, ins);
+            let r = std::panic::catch_unwind(|| match SourceFile::parse("c.toml", t.clone()) {
+                Ok(src) => FingertipParams::from_source(&src, "c").map(|p| tipforge::fingertip::build(&p).map(|_| ())).map(|_| ()),
+                Err(e) => Err(e),
+            });
+            prop_assert!(r.is_ok(), "panicked on:\n{}", t);
+            Ok(())
+        })
+        .unwrap();
+}
