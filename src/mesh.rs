@@ -113,11 +113,17 @@ impl Solid {
     pub fn trim(&self, normal: P3, offset: f64) -> Solid {
         Solid(self.0.trim_by_plane(v3(normal), offset))
     }
-    /// Unions many cutters at once (one boolean per pair, cheap on small cutters).
+    /// Unions many cutters, pairwise in a balanced tree so each boolean works on small meshes
+    /// (a running union would redo the growing result for every cutter).
     pub fn union_all(parts: &[Solid]) -> Option<Solid> {
-        let mut it = parts.iter();
-        let first = it.next()?.clone();
-        Some(it.fold(first, |acc, p| acc.union(p)))
+        let mut level: Vec<Solid> = parts.to_vec();
+        if level.is_empty() {
+            return None;
+        }
+        while level.len() > 1 {
+            level = level.chunks(2).map(|c| if c.len() == 2 { c[0].union(&c[1]) } else { c[0].clone() }).collect();
+        }
+        level.pop()
     }
     /// Drops zero-volume shells a boolean can leave where cutter faces nearly coincide
     /// (below `min_volume` mm³), returning how many were dropped.

@@ -378,24 +378,50 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
         let flare_h = st.flat_depth + 2.0;
         cutters.push(Solid::cylinder(st.flat_center, st.normal, flare_h, rf, rf + flare_h, segments(rf + flare_h, tol)));
         cutters.push(Solid::cylinder(st.floor_center, st.normal, s.seat_depth_mm + st.flat_depth + far, rs, rs, segments(rs, tol)));
-        // tail channel: hulls of short pieces whose floor follows the pad at the channel depth
+        // tail channel: hulls of pieces whose floor follows the pad at the channel depth; a piece
+        // grows while its floor stays within tol/2 of the straight chord (few pieces where the pad
+        // is straight, short ones where it curves)
         let zb = -shape.pad_depth - 2.0;
-        let pts = along(&channel_path(&shape, s), 0.5);
-        for w in pts.windows(2) {
-            let ((a, ta), (b, tb)) = (w[0], w[1]);
-            if (a[0] - b[0]).abs() + (a[1] - b[1]).abs() < 1e-9 {
+        let pts = along(&channel_path(&shape, s), 0.25);
+        let edge = |q: [f64; 2], t: [f64; 2], side: f64| -> Result<P3> {
+            let ex = q[0] - t[1] * side * s.channel_width_mm / 2.0;
+            let ey = q[1] + t[0] * side * s.channel_width_mm / 2.0;
+            floor_point(&shape, s, ex, ey).ok_or_else(|| Error::geometry(name, format!("sensor[{i}] channel leaves the pad")))
+        };
+        let mut start = 0;
+        while start + 1 < pts.len() {
+            let mut end = start + 1;
+            while end + 1 < pts.len() && pts[end + 1].1 == pts[start].1 {
+                let cand = end + 1;
+                let mut fits = true;
+                for side in [-1.0, 1.0] {
+                    let (a, b) = (edge(pts[start].0, pts[start].1, side)?, edge(pts[cand].0, pts[cand].1, side)?);
+                    for mid in start + 1..cand {
+                        let m = edge(pts[mid].0, pts[mid].1, side)?;
+                        let f = (mid - start) as f64 / (cand - start) as f64;
+                        if (a[2] + (b[2] - a[2]) * f - m[2]).abs() > tol / 2.0 {
+                            fits = false;
+                        }
+                    }
+                }
+                if !fits {
+                    break;
+                }
+                end = cand;
+            }
+            let (a, b) = (pts[start], pts[end]);
+            start = end;
+            if (a.0[0] - b.0[0]).abs() + (a.0[1] - b.0[1]).abs() < 1e-9 {
                 continue;
             }
             let mut hull = Vec::with_capacity(8);
-            for (q, t) in [(a, ta), (b, tb)] {
+            for (q, t) in [a, b] {
                 for side in [-1.0, 1.0] {
-                    let ex = q[0] - t[1] * side * s.channel_width_mm / 2.0;
-                    let ey = q[1] + t[0] * side * s.channel_width_mm / 2.0;
-                    let fz = floor_point(&shape, s, ex, ey).map(|p| p[2]).ok_or_else(|| Error::geometry(name, format!("sensor[{i}] channel leaves the pad")))?;
+                    let fp = edge(q, t, side)?;
                     // walls flare at 45° from the floor, so the channel's edges are never sharp
-                    let flare = fz - zb;
-                    hull.push([ex, ey, fz]);
-                    hull.push([ex - t[1] * side * flare, ey + t[0] * side * flare, zb]);
+                    let flare = fp[2] - zb;
+                    hull.push(fp);
+                    hull.push([fp[0] - t[1] * side * flare, fp[1] + t[0] * side * flare, zb]);
                 }
             }
             cutters.push(Solid::hull(&hull));
