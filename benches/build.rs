@@ -13,7 +13,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 fn main() {
     let runs: usize = std::env::var("TIPFORGE_BENCH_RUNS").ok().and_then(|s| s.parse().ok()).unwrap_or(15);
-    let groups: Vec<(&str, Vec<String>)> = vec![("both fingertips", vec!["fingertip-1s".into(), "fingertip-2s".into()])];
+    let groups: Vec<(&str, Vec<String>)> = vec![("both fingertips", vec!["fingertip-1s".into(), "fingertip-2s".into()]), ("calibration rig", vec!["rig".into()])];
     println!("{:<28} {:>6} {:>12} {:>12} {:>12}", "group", "runs", "median ms", "min ms", "max ms");
     for (label, only) in groups {
         let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only, preview: false };
@@ -22,8 +22,9 @@ fn main() {
             let t0 = Instant::now();
             let (loaded, _) = load_all(&opts).expect("params load");
             for l in &loaded {
-                let (parts, _) = build_job(&l.job).expect("build");
-                for p in &parts {
+                let built = build_job(&l.job).expect("build");
+                assert!(built.violations.is_empty());
+                for p in &built.parts {
                     assert!(tipforge::checks::run(p).is_empty());
                 }
             }

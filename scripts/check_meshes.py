@@ -242,6 +242,8 @@ def poly_area(p):
 @rule
 def hole_diameters(c):
     for i, h in enumerate(c.features.get("holes", []) or []):
+        if "axis_point" not in h:
+            continue  # a tunnel counted for the genus, not a round hole
         t, _ = frame_to_z(h["axis_dir"], h["axis_point"])
         cs = c.manifold.transform(t).slice(0.0)
         found = loop_around(cs, (0.0, 0.0))
@@ -336,6 +338,89 @@ def params_match_manifest(c):
                     return "manifest features must come from the parameter file", f"sensor[{i}].{key}: {sp[key]} vs {sf[key]}"
 
 
+# ---------------------------------------------------------------- assemblies
+def polys_centroid_area(cs):
+    a = cx = cy = 0.0
+    for poly in cs.to_polygons():
+        p = np.asarray(poly)
+        q = np.roll(p, -1, axis=0)
+        cr = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
+        a += cr.sum() / 2
+        cx += ((p[:, 0] + q[:, 0]) * cr).sum() / 6
+        cy += ((p[:, 1] + q[:, 1]) * cr).sum() / 6
+    return (cx / a, cy / a), a
+
+
+def check_rig(name, rig, man, root):
+    """Assembly rules of the calibration rig, measured on the written meshes."""
+    out = []
+    base = to_manifold(trimesh.load(str(root / f"{rig['base']}.stl"), process=True))
+    plm = trimesh.load(str(root / f"{rig['plunger']}.stl"), process=True)
+    t = rig["plunger_print_to_assembled"]
+    m = np.array([t["x"], t["y"], t["z"]], dtype=float)
+    plunger = to_manifold(plm).transform(m)
+    fail = lambda rule, val: out.append((f"{name}-assembly", rule, val))
+    inter = (base ^ plunger).volume()
+    if inter > 1e-4:
+        fail("assembled parts must not intersect", f"{inter:.5f} mm3 shared")
+    slider = plunger.trim_by_plane([0, 0, -1], -(rig["plate_bottom_z_mm"] - 1e-3))
+    want = rig["clearance_mm"] - 0.02
+    gaps = []
+    for d in np.linspace(-rig["dome_height_mm"], rig["stop_gap_mm"], 9):
+        gaps.append(slider.translate([0, 0, -d]).min_gap(base, 2 * rig["clearance_mm"] + 1))
+    if min(gaps) < want:
+        fail("sliding clearance must hold along the travel", f"min gap {min(gaps):.4f} mm (need >= {want:.3f})")
+    # seat floor by a ray down the axis, then the dome top from the sensor's dimensions
+    hits = base.ray_cast([0, 0, 100.0], [0, 0, -100.0])
+    floor = 100.0 - hits[0].distance * 200.0
+    dome_top = floor + rig["board_thickness_mm"] + rig["dome_height_mm"]
+    face_z = plunger.bounding_box()[2]
+    if abs(face_z - dome_top) > 0.05:
+        fail("the frustum face must rest on the dome top (0 +/- 0.05 mm)", f"gap {face_z - dome_top:.4f} mm")
+    (fx, fy), area = polys_centroid_area(plunger.slice(face_z + 1e-4))
+    nominal = math.pi * (rig["face_diameter_mm"] / 2) ** 2
+    if abs(area / nominal - 1) > 1e-3:
+        fail("the small face must have the sensing area within 0.1 %", f"{area:.4f} vs {nominal:.4f} mm2 ({100*(area/nominal-1):+.3f} %)")
+    # seat axis: circle fit to the recess wall (the tail slot opens one side, so it is no closed loop)
+    r_seat = man["parts"][rig["base"]]["features"]["seat_diameter_mm"] / 2
+    pts = np.vstack([np.asarray(p) for p in base.slice(floor + rig["board_thickness_mm"] / 2).to_polygons()])
+    rad = np.hypot(pts[:, 0], pts[:, 1])
+    pts = pts[(rad > 0.8 * r_seat) & (rad < 1.2 * r_seat)]
+    if len(pts) < 8:
+        fail("the base must have a sensor seat on the axis", f"{len(pts)} points of a recess wall found")
+    else:
+        for _ in range(3):  # fit, drop points off the circle (slot edges), refit
+            a = np.column_stack([2 * pts[:, 0], 2 * pts[:, 1], np.ones(len(pts))])
+            sol, *_ = np.linalg.lstsq(a, (pts ** 2).sum(axis=1), rcond=None)
+            sx, sy = sol[0], sol[1]
+            r = math.sqrt(sol[2] + sx * sx + sy * sy)
+            keep = np.abs(np.hypot(pts[:, 0] - sx, pts[:, 1] - sy) - r) < 0.02
+            if keep.all() or keep.sum() < 8:
+                break
+            pts = pts[keep]
+        off = math.hypot(fx - sx, fy - sy)
+        if off > 0.01:
+            fail("frustum axis must be on the seat axis within 0.01 mm", f"{off:.4f} mm")
+    zc = rig["plate_top_z_mm"] - rig["scale_depth_mm"] / 2
+    cs = plunger.slice(zc)
+    (rx, ry), _ = polys_centroid_area(cs)
+    if cs.num_contour() < 3 or math.hypot(rx - fx, ry - fy) > 0.01:
+        fail("the centring scale must be engraved and concentric with the frustum", f"{cs.num_contour()} contours, offset {math.hypot(rx - fx, ry - fy):.4f} mm")
+    pre = man["parts"][rig["plunger"]].get("preload_g")
+    exp = plm.volume / 1000 * rig["density_g_cm3"] * rig["infill"]
+    if pre is None or abs(pre - exp) > 1e-3 * exp:
+        fail("the manifest preload must be the plunger's mass", f"{pre} g vs {exp:.4f} g")
+    print(f"{name}-assembly: {'ok' if not out else 'FAILED'} (face area {area:.4f} mm2 = {100*(area/nominal-1):+.4f} %, min sliding gap {min(gaps):.4f} mm, rest gap {face_z - dome_top:+.4f} mm)")
+    return out
+
+
+def polys_centroid_area_simple(p):
+    q = np.roll(p, -1, axis=0)
+    cr = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
+    a = cr.sum() / 2
+    return (((p[:, 0] + q[:, 0]) * cr).sum() / (6 * a), ((p[:, 1] + q[:, 1]) * cr).sum() / (6 * a)), a
+
+
 # ---------------------------------------------------------------- driver
 def load_3mf(path):
     if not path.exists():
@@ -381,6 +466,8 @@ def main(root):
         f = check_part(name, entry, root)
         failures += f
         print(f"{name}: {'ok' if not f else 'FAILED'} ({len(RULES)} rules)")
+    for name, rig in sorted(man.get("rigs", {}).items()):
+        failures += check_rig(name, rig, man, root)
     for name, rule_text, value in failures:
         print(f"  {name}: {rule_text}: {value}")
     print(f"{len(parts) - len({f[0] for f in failures})} passed, {len({f[0] for f in failures})} failed")

@@ -38,6 +38,16 @@ pub struct Report {
 /// A validated part file, ready to build.
 pub enum Job {
     Fingertip(FingertipParams),
+    Rig(crate::params::rig::RigParams),
+}
+
+/// What building one file gives: parts, assembly views, assembly violations, manifest sections.
+pub struct Built {
+    pub parts: Vec<Part>,
+    pub assemblies: Vec<Assembly>,
+    pub violations: Vec<crate::checks::Violation>,
+    /// Top-level manifest sections keyed by section name ("rigs", ...), merged across files.
+    pub sections: Vec<(&'static str, Map<String, serde_json::Value>)>,
 }
 
 pub struct Loaded {
@@ -86,6 +96,7 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Vec<(String, &'static st
         let rel = path.display().to_string();
         let job = match kind {
             Kind::Fingertip => FingertipParams::from_source(&src, &stem).map(Job::Fingertip),
+            Kind::Rig => crate::params::rig::RigParams::from_source(&src, &stem).map(Job::Rig),
             _ => {
                 skipped.push((rel, "part kind not built by this version"));
                 continue;
@@ -104,9 +115,13 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Vec<(String, &'static st
 }
 
 /// Builds the parts of one loaded file.
-pub fn build_job(job: &Job) -> Result<(Vec<Part>, Vec<Assembly>)> {
+pub fn build_job(job: &Job) -> Result<Built> {
     match job {
-        Job::Fingertip(p) => Ok((vec![crate::fingertip::build(p)?], vec![])),
+        Job::Fingertip(p) => Ok(Built { parts: vec![crate::fingertip::build(p)?], assemblies: vec![], violations: vec![], sections: vec![] }),
+        Job::Rig(p) => {
+            let b = crate::rig::build(p)?;
+            Ok(Built { parts: b.parts, assemblies: b.assemblies, violations: b.violations, sections: vec![("rigs", b.manifest)] })
+        }
     }
 }
 
@@ -117,9 +132,17 @@ pub fn run(opts: &Options) -> Result<Report> {
     let mut entries = Map::new();
     let mut summaries = Vec::new();
     let mut violations = Vec::new();
+    let mut sections = Map::new();
     for l in &loaded {
         let t0 = Instant::now();
-        let (parts, assemblies) = build_job(&l.job)?;
+        let Built { parts, assemblies, violations: assembly_violations, sections: secs } = build_job(&l.job)?;
+        violations.extend(assembly_violations);
+        for (k, m) in secs {
+            let entry = sections.entry(k.to_string()).or_insert_with(|| serde_json::Value::Object(Map::new()));
+            if let serde_json::Value::Object(o) = entry {
+                o.extend(m);
+            }
+        }
         let per_part_ms = t0.elapsed().as_secs_f64() * 1000.0 / parts.len().max(1) as f64;
         let sha = manifest::sha256_hex(l.src.text.as_bytes());
         for part in &parts {
@@ -150,7 +173,7 @@ pub fn run(opts: &Options) -> Result<Report> {
         let msg = violations.iter().map(|v| format!("  {v}")).collect::<Vec<_>>().join("\n");
         return Err(Error::geometry("build", format!("checks failed, nothing written:\n{msg}")));
     }
-    staged.add(opts.out_dir.join("manifest.json"), manifest::document(entries, Map::new()));
+    staged.add(opts.out_dir.join("manifest.json"), manifest::document(entries, sections));
     let written = staged.commit()?;
     Ok(Report { summaries, written, skipped, notes: Vec::new() })
 }

@@ -10,3 +10,4 @@ pub mod mesh;
 pub mod params;
 pub mod part;
 pub mod preview;
+pub mod rig;

@@ -112,3 +112,29 @@ fn missing_kind_and_unknown_kind_are_input_errors() {
     assert!(text.contains("a.toml") && text.contains("add a top-level `kind"), "{text}");
     assert!(text.contains("b.toml") && text.contains("unknown kind"), "{text}");
 }
+
+#[test]
+fn rig_rules_name_the_offending_key() {
+    let base = std::fs::read_to_string("params/rig.toml").unwrap();
+    let cases = [
+        ("face_diameter_mm = 8.0", "face_diameter_mm = 9.0", "plunger.face_diameter_mm"),
+        ("\nclearance_mm = 0.3", "\nclearance_mm = 0.05", "does not print reliably"),
+        ("plate_diameter_mm = 60.0", "plate_diameter_mm = 30.0", "must carry the weights"),
+        ("stem_length_mm = 24.0", "stem_length_mm = 2.0", "cannot hold the plunger vertical"),
+        ("stop_gap_mm = 0.5 ", "stop_gap_mm = 1.5 ", "overtravel stop"),
+    ];
+    // all at once: every problem in one run
+    let d = dir("rig-all");
+    let mut all = base.clone();
+    for (from, to, _) in &cases {
+        assert!(all.contains(from), "fixture lacks {from}");
+        all = all.replacen(from, to, 1);
+    }
+    std::fs::write(d.join("params/rig.toml"), all).unwrap();
+    let (code, text) = run(&d);
+    assert_eq!(code, 2, "{text}");
+    for (_, _, needle) in &cases {
+        assert!(text.contains(needle), "expected {needle:?} in\n{text}");
+    }
+    assert!(!d.join("out").exists());
+}

@@ -6,6 +6,7 @@
 //! (type errors per table) → `TryFrom`-style validation that collects every semantic problem.
 
 pub mod fingertip;
+pub mod rig;
 mod raw;
 
 pub use raw::{Collector, Schema, SourceFile};

@@ -1,0 +1,285 @@
+//! Calibration rig parameters (paper section 2.1): a base with the sensor seat and a sliding
+//! guide sleeve, and a plunger whose frustum's small face is the 8 mm sensing area, topped by a
+//! flat plate for stacked weights with an engraved centring scale.
+//!
+//! Frame: z up, the sensor's axis on z = 0 axis, base bottom at z = 0.
+
+use super::fingertip::{print_params, Print, RawPrint, PRINT_SCHEMA};
+use super::{Collector, Schema, SourceFile};
+use crate::error::Result;
+use serde::Deserialize;
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSensor {
+    pub disc_diameter_mm: Option<f64>,
+    pub board_thickness_mm: Option<f64>,
+    pub dome_diameter_mm: Option<f64>,
+    pub dome_height_mm: Option<f64>,
+    pub tail_width_mm: Option<f64>,
+    pub tail_length_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBase {
+    pub width_mm: Option<f64>,
+    pub height_mm: Option<f64>,
+    pub seat_clearance_mm: Option<f64>,
+    pub tail_slot_clearance_mm: Option<f64>,
+    pub sleeve_wall_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPlunger {
+    pub face_diameter_mm: Option<f64>,
+    pub frustum_top_diameter_mm: Option<f64>,
+    pub frustum_height_mm: Option<f64>,
+    pub stem_diameter_mm: Option<f64>,
+    pub stem_length_mm: Option<f64>,
+    pub plate_diameter_mm: Option<f64>,
+    pub plate_thickness_mm: Option<f64>,
+    pub weight_diameter_mm: Option<f64>,
+    pub clearance_mm: Option<f64>,
+    pub stop_gap_mm: Option<f64>,
+    pub max_tilt_deg: Option<f64>,
+    pub scale_pitch_mm: Option<f64>,
+    pub scale_line_width_mm: Option<f64>,
+    pub scale_depth_mm: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRigPrint {
+    pub density_g_cm3: Option<f64>,
+    pub infill: Option<f64>,
+    pub min_wall_mm: Option<f64>,
+    pub chordal_tolerance_mm: Option<f64>,
+}
+
+static SENSOR_SCHEMA: Schema = Schema { fields: &["disc_diameter_mm", "board_thickness_mm", "dome_diameter_mm", "dome_height_mm", "tail_width_mm", "tail_length_mm"], tables: &[] };
+static BASE_SCHEMA: Schema = Schema { fields: &["width_mm", "height_mm", "seat_clearance_mm", "tail_slot_clearance_mm", "sleeve_wall_mm"], tables: &[] };
+static PLUNGER_SCHEMA: Schema = Schema {
+    fields: &[
+        "face_diameter_mm", "frustum_top_diameter_mm", "frustum_height_mm", "stem_diameter_mm", "stem_length_mm", "plate_diameter_mm",
+        "plate_thickness_mm", "weight_diameter_mm", "clearance_mm", "stop_gap_mm", "max_tilt_deg", "scale_pitch_mm", "scale_line_width_mm", "scale_depth_mm",
+    ],
+    tables: &[],
+};
+static RIG_PRINT_SCHEMA: Schema = Schema { fields: &["density_g_cm3", "infill", "min_wall_mm", "chordal_tolerance_mm"], tables: &[] };
+pub static SCHEMA: Schema = Schema {
+    fields: &["kind", "name"],
+    tables: &[("sensor", false, &SENSOR_SCHEMA), ("base", false, &BASE_SCHEMA), ("plunger", false, &PLUNGER_SCHEMA), ("print", false, &RIG_PRINT_SCHEMA)],
+};
+const _: &Schema = &PRINT_SCHEMA;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigSensor {
+    pub disc_diameter_mm: f64,
+    pub board_thickness_mm: f64,
+    pub dome_diameter_mm: f64,
+    pub dome_height_mm: f64,
+    pub tail_width_mm: f64,
+    pub tail_length_mm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Base {
+    pub width_mm: f64,
+    pub height_mm: f64,
+    pub seat_clearance_mm: f64,
+    pub tail_slot_clearance_mm: f64,
+    pub sleeve_wall_mm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plunger {
+    pub face_diameter_mm: f64,
+    pub frustum_top_diameter_mm: f64,
+    pub frustum_height_mm: f64,
+    pub stem_diameter_mm: f64,
+    pub stem_length_mm: f64,
+    pub plate_diameter_mm: f64,
+    pub plate_thickness_mm: f64,
+    pub weight_diameter_mm: f64,
+    pub clearance_mm: f64,
+    pub stop_gap_mm: f64,
+    pub max_tilt_deg: f64,
+    pub scale_pitch_mm: f64,
+    pub scale_line_width_mm: f64,
+    pub scale_depth_mm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigParams {
+    pub name: String,
+    pub sensor: RigSensor,
+    pub base: Base,
+    pub plunger: Plunger,
+    pub print: Print,
+    pub infill: f64,
+}
+
+/// Smallest sliding clearance an FDM printer holds reliably (mm).
+pub const MIN_CLEARANCE_MM: f64 = 0.15;
+
+impl RigParams {
+    pub fn from_source(src: &SourceFile, default_name: &str) -> Result<RigParams> {
+        let mut c = Collector::new(src);
+        c.problems.extend(src.unknown_keys(&SCHEMA));
+        if !c.problems.is_empty() {
+            return super::finish(None, c.problems);
+        }
+        let mut problems = Vec::new();
+        let s: Option<RawSensor> = src.table("sensor", &mut problems);
+        let b: Option<RawBase> = src.table("base", &mut problems);
+        let p: Option<RawPlunger> = src.table("plunger", &mut problems);
+        let pr: Option<RawRigPrint> = src.table("print", &mut problems);
+        c.problems.extend(problems);
+        let (Some(s), Some(b), Some(p), Some(pr)) = (s, b, p, pr) else {
+            return super::finish(None, c.problems);
+        };
+        let name = match src.value.get("name") {
+            Some(toml::Value::String(n)) => n.clone(),
+            _ => default_name.to_string(),
+        };
+        let v = validate(&mut c, name, &s, &b, &p, &pr);
+        super::finish(v, c.problems)
+    }
+}
+
+fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &RawPlunger, pr: &RawRigPrint) -> Option<RigParams> {
+    let disc = c.positive(s.disc_diameter_mm, "sensor.disc_diameter_mm", "12.0");
+    let board = c.positive(s.board_thickness_mm, "sensor.board_thickness_mm", "0.3");
+    let dome_d = c.positive(s.dome_diameter_mm, "sensor.dome_diameter_mm", "8.0");
+    let dome_h = c.positive(s.dome_height_mm, "sensor.dome_height_mm", "1.0");
+    let tail_w = c.positive(s.tail_width_mm, "sensor.tail_width_mm", "4.0");
+    let tail_l = c.positive(s.tail_length_mm, "sensor.tail_length_mm", "30.0");
+    let bw = c.positive(b.width_mm, "base.width_mm", "50.0");
+    let bh = c.positive(b.height_mm, "base.height_mm", "8.0");
+    let seat_c = c.or_within(b.seat_clearance_mm, 0.2, "base.seat_clearance_mm", 0.0, 2.0);
+    let slot_c = c.or_within(b.tail_slot_clearance_mm, 0.3, "base.tail_slot_clearance_mm", 0.0, 3.0);
+    let sleeve_wall = c.positive(b.sleeve_wall_mm, "base.sleeve_wall_mm", "3.0");
+    let face = c.positive(Some(p.face_diameter_mm.unwrap_or(8.0)), "plunger.face_diameter_mm", "8.0");
+    let ftop = c.positive(p.frustum_top_diameter_mm, "plunger.frustum_top_diameter_mm", "14.0");
+    let fh = c.positive(p.frustum_height_mm, "plunger.frustum_height_mm", "6.0");
+    let stem_d = c.positive(p.stem_diameter_mm, "plunger.stem_diameter_mm", "16.0");
+    let stem_l = c.positive(p.stem_length_mm, "plunger.stem_length_mm", "24.0");
+    let plate_d = c.positive(p.plate_diameter_mm, "plunger.plate_diameter_mm", "60.0");
+    let plate_t = c.positive(p.plate_thickness_mm, "plunger.plate_thickness_mm", "4.0");
+    let weight_d = c.positive(p.weight_diameter_mm, "plunger.weight_diameter_mm", "40.0");
+    let clear = c.req(Some(p.clearance_mm.unwrap_or(0.3)), "plunger.clearance_mm", "0.3");
+    let stop = c.positive(p.stop_gap_mm, "plunger.stop_gap_mm", "0.5");
+    let tilt = c.or_within(p.max_tilt_deg, 2.0, "plunger.max_tilt_deg", 0.05, 10.0);
+    let pitch = c.positive(p.scale_pitch_mm, "plunger.scale_pitch_mm", "5.0");
+    let line_w = c.positive(p.scale_line_width_mm, "plunger.scale_line_width_mm", "0.6");
+    let sdepth = c.positive(p.scale_depth_mm, "plunger.scale_depth_mm", "0.4");
+    let print = print_params(c, &RawPrint { density_g_cm3: pr.density_g_cm3, min_wall_mm: pr.min_wall_mm, chordal_tolerance_mm: pr.chordal_tolerance_mm }, 1.2);
+    let infill = c.or_within(pr.infill, 1.0, "print.infill", 0.05, 1.0);
+
+    // cross-field rules: every problem is reported, each with its path
+    if let (Some(f), Some(d)) = (face, dome_d) {
+        if f > d + 1e-9 {
+            c.push("plunger.face_diameter_mm", f, format!("the frustum face must not be larger than the dome ({d} mm): its force would bypass the sensing area"));
+        }
+    }
+    if let (Some(d), Some(disc)) = (dome_d, disc) {
+        if d > disc {
+            c.push("sensor.dome_diameter_mm", d, format!("the dome must fit on the disc ({disc} mm)"));
+        }
+    }
+    if let (Some(f), Some(t)) = (face, ftop) {
+        if t < f {
+            c.push("plunger.frustum_top_diameter_mm", t, format!("the frustum must widen upward from its {f} mm face"));
+        }
+    }
+    if let (Some(t), Some(sd)) = (ftop, stem_d) {
+        if t > sd {
+            c.push("plunger.frustum_top_diameter_mm", t, format!("must not exceed the stem diameter {sd} mm (the frustum slides inside the guide)"));
+        }
+    }
+    if let Some(cl) = clear {
+        if cl < MIN_CLEARANCE_MM {
+            c.push("plunger.clearance_mm", cl, format!("a sliding clearance below {MIN_CLEARANCE_MM} mm does not print reliably: the plunger would stick"));
+        }
+    }
+    if let (Some(pd), Some(wd)) = (plate_d, weight_d) {
+        if pd < wd {
+            c.push("plunger.plate_diameter_mm", pd, format!("the plate must carry the weights: at least their footprint {wd} mm"));
+        }
+    }
+    if let (Some(sd), Some(cl), Some(disc), Some(sc)) = (stem_d, clear, disc, seat_c) {
+        if sd + 2.0 * cl < disc + 2.0 * sc {
+            c.push("plunger.stem_diameter_mm", sd, format!("the guide bore ({:.2} mm) must clear the sensor seat ({:.2} mm) so the sensor can be placed", sd + 2.0 * cl, disc + 2.0 * sc));
+        }
+    }
+    if let (Some(st), Some(dh)) = (stop, dome_h) {
+        if st >= dh {
+            c.push("plunger.stop_gap_mm", st, format!("the overtravel stop must engage before the dome is flattened: less than the dome height {dh} mm"));
+        }
+    }
+    if let (Some(sl), Some(st), Some(cl), Some(t), Some(sd)) = (stem_l, stop, clear, tilt, stem_d) {
+        let engage = sl - st;
+        let worst = (2.0 * cl / engage.max(1e-9)).atan().to_degrees();
+        if engage <= 0.0 || worst > t {
+            c.push(
+                "plunger.stem_length_mm",
+                sl,
+                format!("the guide cannot hold the plunger vertical: {:.1} mm of engagement with {cl} mm clearance allows {worst:.2}° of tilt (max {t}°); lengthen the stem to ≥ {:.1} mm", engage, 2.0 * cl / t.to_radians().tan() + st),
+            );
+        }
+        let _ = sd;
+    }
+    if let (Some(bw), Some(sd), Some(cl), Some(wall)) = (bw, stem_d, clear, sleeve_wall) {
+        if bw < sd + 2.0 * cl + 2.0 * wall + 10.0 {
+            c.push("base.width_mm", bw, format!("the base must extend at least 5 mm beyond the guide sleeve ({:.1} mm across)", sd + 2.0 * cl + 2.0 * wall));
+        }
+    }
+    if let (Some(wall), Some(pr)) = (sleeve_wall, &print) {
+        if wall < pr.min_wall_mm {
+            c.push("base.sleeve_wall_mm", wall, format!("thinner than the minimum wall {} mm", pr.min_wall_mm));
+        }
+    }
+    if let (Some(bh), Some(board), Some(pr)) = (bh, board, &print) {
+        if bh - board - 0.2 < pr.min_wall_mm {
+            c.push("base.height_mm", bh, format!("leaves less than the minimum wall {} mm under the seat and the tail slot", pr.min_wall_mm));
+        }
+    }
+    if let (Some(tl), Some(bw), Some(disc)) = (tail_l, bw, disc) {
+        if tl < bw / 2.0 - disc / 2.0 {
+            c.push("sensor.tail_length_mm", tl, format!("the tail does not reach the base edge ({:.1} mm from the seat): widen nothing, just check the sensor; the base is too wide for it", bw / 2.0 - disc / 2.0));
+        }
+    }
+    if let (Some(pitch), Some(lw), Some(sd), Some(pt)) = (pitch, line_w, sdepth, plate_t) {
+        if lw >= pitch {
+            c.push("plunger.scale_line_width_mm", lw, format!("scale lines must be narrower than their pitch {pitch} mm"));
+        }
+        if sd > pt / 2.0 {
+            c.push("plunger.scale_depth_mm", sd, format!("engraving deeper than half the plate ({pt} mm) weakens it"));
+        }
+    }
+    Some(RigParams {
+        name,
+        sensor: RigSensor { disc_diameter_mm: disc?, board_thickness_mm: board?, dome_diameter_mm: dome_d?, dome_height_mm: dome_h?, tail_width_mm: tail_w?, tail_length_mm: tail_l? },
+        base: Base { width_mm: bw?, height_mm: bh?, seat_clearance_mm: seat_c?, tail_slot_clearance_mm: slot_c?, sleeve_wall_mm: sleeve_wall? },
+        plunger: Plunger {
+            face_diameter_mm: face?,
+            frustum_top_diameter_mm: ftop?,
+            frustum_height_mm: fh?,
+            stem_diameter_mm: stem_d?,
+            stem_length_mm: stem_l?,
+            plate_diameter_mm: plate_d?,
+            plate_thickness_mm: plate_t?,
+            weight_diameter_mm: weight_d?,
+            clearance_mm: clear?,
+            stop_gap_mm: stop?,
+            max_tilt_deg: tilt?,
+            scale_pitch_mm: pitch?,
+            scale_line_width_mm: line_w?,
+            scale_depth_mm: sdepth?,
+        },
+        print: print?,
+        infill: infill?,
+    })
+}
