@@ -11,3 +11,4 @@ pub mod params;
 pub mod part;
 pub mod preview;
 pub mod rig;
+pub mod sensor;

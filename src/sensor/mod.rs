@@ -1,0 +1,5 @@
+//! The sensor loop: recordings → preprocessing → fits → fashion curves → reports; the simulator.
+
+pub mod fit;
+pub mod preprocess;
+pub mod recording;

@@ -1,0 +1,400 @@
+//! Recordings: one trial per CSV file (format in docs/recording-format.md). Streams the file line
+//! by line; every problem is reported with file:line and the fix, never a panic.
+
+use crate::error::{Error, Problem, Problems, Result};
+use std::collections::BTreeMap;
+use std::io::BufRead;
+use std::path::Path;
+
+/// Which side of the divider the sensor is on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Divider {
+    /// Sensor between supply and node: V = Vcc·Rm/(Rm + Rs).
+    SensorHigh,
+    /// Sensor between node and ground: V = Vcc·Rs/(Rm + Rs).
+    SensorLow,
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Meta {
+    pub sample_rate_hz: Option<f64>,
+    pub vcc_v: Option<f64>,
+    pub r_m_ohm: Option<f64>,
+    pub adc_bits: Option<u32>,
+    pub vref_v: Option<f64>,
+    pub divider: Option<Divider>,
+    /// Every `key=value` line, including unknown keys (kept, not interpreted).
+    pub all: BTreeMap<String, String>,
+}
+
+/// What the protocol column means.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProtocolKind {
+    LoadG,
+    ForceN,
+    Input,
+}
+
+impl ProtocolKind {
+    pub fn column(self) -> &'static str {
+        match self {
+            ProtocolKind::LoadG => "load_g",
+            ProtocolKind::ForceN => "force_n",
+            ProtocolKind::Input => "input",
+        }
+    }
+    /// Converts a protocol value to grams where that is meaningful.
+    pub fn grams(self, v: f64) -> Option<f64> {
+        match self {
+            ProtocolKind::LoadG => Some(v),
+            ProtocolKind::ForceN => Some(v / 9.80665 * 1000.0),
+            ProtocolKind::Input => None,
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct Recording {
+    /// File it came from (as given).
+    pub source: String,
+    pub meta: Meta,
+    pub time_s: Vec<f64>,
+    /// The response, in `unit` ("V" when it could be converted to the divider voltage, else the
+    /// column's own unit).
+    pub response: Vec<f64>,
+    pub unit: &'static str,
+    /// The column the response came from.
+    pub response_column: &'static str,
+    pub protocol: Vec<f64>,
+    pub protocol_kind: ProtocolKind,
+    /// Columns present but not used.
+    pub ignored_columns: Vec<String>,
+}
+
+const RESPONSES: [&str; 3] = ["voltage_v", "adc_counts", "resistance_ohm"];
+const PROTOCOLS: [(&str, ProtocolKind); 3] = [("load_g", ProtocolKind::LoadG), ("force_n", ProtocolKind::ForceN), ("input", ProtocolKind::Input)];
+
+impl Recording {
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+    /// Median sample interval (s).
+    pub fn dt(&self) -> f64 {
+        let mut d: Vec<f64> = self.time_s.windows(2).map(|w| w[1] - w[0]).collect();
+        if d.is_empty() {
+            return 0.0;
+        }
+        d.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        d[d.len() / 2]
+    }
+    /// Sample rate: from metadata, else from the time column.
+    pub fn sample_rate_hz(&self) -> f64 {
+        self.meta.sample_rate_hz.unwrap_or_else(|| 1.0 / self.dt().max(1e-12))
+    }
+    /// File stem, for output names.
+    pub fn stem(&self) -> String {
+        Path::new(&self.source).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "recording".into())
+    }
+}
+
+/// Reads a recording; all problems found are returned together.
+pub fn read(path: &Path) -> Result<Recording> {
+    let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    parse(&path.display().to_string(), std::io::BufReader::new(f))
+}
+
+struct P<'a> {
+    file: &'a str,
+    out: Vec<Problem>,
+}
+
+impl P<'_> {
+    fn at(&mut self, line: usize, what: &str, value: impl ToString, fix: impl Into<String>) {
+        if self.out.len() < 50 {
+            self.out.push(Problem { file: self.file.to_string(), line: Some(line), path: what.to_string(), value: value.to_string(), message: fix.into() });
+        }
+    }
+}
+
+/// Parses a recording from any reader (streamed, line by line).
+pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
+    let mut p = P { file, out: Vec::new() };
+    let mut meta = Meta::default();
+    let mut header: Option<(usize, Vec<String>)> = None;
+    let (mut t, mut r, mut g) = (Vec::new(), Vec::new(), Vec::new());
+    let mut cols: Option<(usize, usize, usize, usize)> = None; // (time, response, protocol, ncols)
+    let mut response_column = "";
+    let mut protocol_kind = ProtocolKind::Input;
+    let mut ignored = Vec::new();
+    let mut meta_lines: BTreeMap<String, usize> = BTreeMap::new();
+    let mut bad_rows = 0usize;
+    for (i, line) in reader.lines().enumerate() {
+        let n = i + 1;
+        let line = match line {
+            Ok(l) => l,
+            Err(e) => {
+                p.at(n, "(line)", "unreadable", format!("the file is not text ({e}); export the recording as UTF-8 CSV"));
+                break;
+            }
+        };
+        let line = line.trim();
+        if line.is_empty() {
+            continue;
+        }
+        if let Some(c) = line.strip_prefix('#') {
+            if let Some((k, v)) = c.split_once('=') {
+                let (k, v) = (k.trim().to_string(), v.trim().to_string());
+                meta_lines.insert(k.clone(), n);
+                parse_meta(&mut p, n, &k, &v, &mut meta);
+                meta.all.insert(k, v);
+            }
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').map(|c| c.trim()).collect();
+        if header.is_none() {
+            let names: Vec<String> = cells.iter().map(|c| c.to_ascii_lowercase()).collect();
+            let find = |want: &str| names.iter().enumerate().filter(|(_, c)| *c == want).map(|(i, _)| i).collect::<Vec<_>>();
+            let time = find("time_s");
+            if time.len() != 1 {
+                p.at(n, "header", line, if time.is_empty() { "no `time_s` column: the first non-comment line must be a header naming time_s, one response column and one protocol column" } else { "`time_s` appears more than once" });
+            }
+            let resp: Vec<(usize, &str)> = RESPONSES.iter().flat_map(|c| find(c).into_iter().map(move |i| (i, *c))).collect();
+            if resp.len() != 1 {
+                p.at(n, "header", line, format!("exactly one response column is needed, one of {}; found {}", RESPONSES.join(", "), resp.len()));
+            }
+            let prot: Vec<(usize, ProtocolKind)> = PROTOCOLS.iter().flat_map(|(c, k)| find(c).into_iter().map(move |i| (i, *k))).collect();
+            if prot.len() != 1 {
+                p.at(n, "header", line, format!("exactly one protocol column is needed, one of load_g, force_n, input; found {}", prot.len()));
+            }
+            if time.len() == 1 && resp.len() == 1 && prot.len() == 1 {
+                cols = Some((time[0], resp[0].0, prot[0].0, names.len()));
+                response_column = resp[0].1;
+                protocol_kind = prot[0].1;
+                for (i, name) in names.iter().enumerate() {
+                    if i != time[0] && i != resp[0].0 && i != prot[0].0 {
+                        ignored.push(name.clone());
+                    }
+                }
+            }
+            header = Some((n, names));
+            continue;
+        }
+        let Some((ti, ri, gi, nc)) = cols else { break };
+        if cells.len() != nc {
+            p.at(n, "row", line, format!("has {} cells, the header has {nc}", cells.len()));
+            bad_rows += 1;
+            continue;
+        }
+        let mut vals = [0.0; 3];
+        let mut ok = true;
+        for (k, (ci, name)) in [(ti, "time_s"), (ri, response_column), (gi, protocol_kind.column())].iter().enumerate() {
+            match cells[*ci].parse::<f64>() {
+                Ok(v) if v.is_finite() => vals[k] = v,
+                Ok(v) => {
+                    p.at(n, name, v, "NaN or infinite values are not allowed: remove the row or fill the gap");
+                    ok = false;
+                }
+                Err(_) => {
+                    p.at(n, name, format!("{:?}", cells[*ci]), "not a number");
+                    ok = false;
+                }
+            }
+        }
+        if !ok {
+            bad_rows += 1;
+            continue;
+        }
+        if let Some(&last) = t.last() {
+            if vals[0] <= last {
+                p.at(n, "time_s", vals[0], format!("time must increase (previous row: {last})"));
+                bad_rows += 1;
+                continue;
+            }
+        }
+        t.push(vals[0]);
+        r.push(vals[1]);
+        g.push(vals[2]);
+    }
+    if header.is_none() {
+        p.at(1, "(file)", "empty", "no header and no data: a recording needs a header row (time_s, a response column, a protocol column) and data rows");
+    } else if t.is_empty() && p.out.is_empty() {
+        p.at(header.as_ref().unwrap().0, "(file)", "no data rows", "the file has a header but no data");
+    }
+    // contradictory metadata
+    if let (Some(fs), true) = (meta.sample_rate_hz, t.len() > 10) {
+        let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        d.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        let med = d[d.len() / 2];
+        if ((1.0 / med) / fs - 1.0).abs() > 0.1 {
+            p.at(meta_lines.get("sample_rate_hz").copied().unwrap_or(1), "sample_rate_hz", fs, format!("contradicts the time column (median interval {med:.5} s = {:.2} Hz): fix the metadata", 1.0 / med));
+        }
+    }
+    if let (Some(bits), Some(_)) = (meta.adc_bits, meta.vref_v) {
+        if response_column == "adc_counts" {
+            let max = (1u64 << bits.min(32)) as f64 - 1.0;
+            if let Some(bad) = r.iter().position(|&v| v < 0.0 || v > max) {
+                p.at(0, "adc_counts", r[bad], format!("outside 0..{max} for adc_bits = {bits}: the metadata or the column is wrong"));
+            }
+        }
+    }
+    let (response, unit) = match response_column {
+        "voltage_v" => (r, "V"),
+        "adc_counts" => match (meta.adc_bits, meta.vref_v) {
+            (Some(bits), Some(vref)) => (r.iter().map(|c| c / ((1u64 << bits) as f64 - 1.0) * vref).collect(), "V"),
+            _ => {
+                p.at(header.as_ref().map(|h| h.0).unwrap_or(1), "adc_counts", "no adc_bits/vref_v", "converting counts to volts needs `# adc_bits=12` and `# vref_v=3.3` metadata lines");
+                (r, "counts")
+            }
+        },
+        "resistance_ohm" => match (meta.vcc_v, meta.r_m_ohm, meta.divider) {
+            (Some(vcc), Some(rm), Some(div)) => (
+                r.iter()
+                    .map(|rs| match div {
+                        Divider::SensorHigh => vcc * rm / (rm + rs),
+                        Divider::SensorLow => vcc * rs / (rm + rs),
+                    })
+                    .collect(),
+                "V",
+            ),
+            _ => (r, "ohm"),
+        },
+        _ => (r, ""),
+    };
+    if !p.out.is_empty() {
+        if bad_rows > 50 {
+            p.out.push(Problem { file: file.into(), line: None, path: "(rows)".into(), value: format!("{bad_rows} bad rows"), message: "only the first 50 problems are listed".into() });
+        }
+        return Err(Error::Input(Problems(p.out)));
+    }
+    Ok(Recording { source: file.to_string(), meta, time_s: t, response, unit, response_column, protocol: g, protocol_kind, ignored_columns: ignored })
+}
+
+fn parse_meta(p: &mut P, n: usize, k: &str, v: &str, m: &mut Meta) {
+    let num = |p: &mut P, v: &str| -> Option<f64> {
+        match v.parse::<f64>() {
+            Ok(x) if x.is_finite() && x > 0.0 => Some(x),
+            _ => {
+                p.at(n, k, v, "must be a positive number");
+                None
+            }
+        }
+    };
+    match k {
+        "sample_rate_hz" => m.sample_rate_hz = num(p, v),
+        "vcc_v" => m.vcc_v = num(p, v),
+        "r_m_ohm" => m.r_m_ohm = num(p, v),
+        "vref_v" => m.vref_v = num(p, v),
+        "adc_bits" => match v.parse::<u32>() {
+            Ok(b) if (1..=32).contains(&b) => m.adc_bits = Some(b),
+            _ => p.at(n, k, v, "must be a whole number of bits from 1 to 32"),
+        },
+        "divider" => match v {
+            "sensor_high" => m.divider = Some(Divider::SensorHigh),
+            "sensor_low" => m.divider = Some(Divider::SensorLow),
+            _ => p.at(n, k, v, "use `sensor_high` (sensor between supply and node) or `sensor_low`"),
+        },
+        _ => {}
+    }
+    if let (Some(vcc), Some(vref)) = (m.vcc_v, m.vref_v) {
+        if k == "vref_v" || k == "vcc_v" {
+            if vref > 0.0 && vcc > 2.0 * vref.max(1e-9) * 10.0 {
+                p.at(n, k, v, format!("vcc_v = {vcc} and vref_v = {vref} contradict each other"));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse_str(s: &str) -> Result<Recording> {
+        parse("t.csv", std::io::Cursor::new(s.as_bytes().to_vec()))
+    }
+
+    fn problems(s: &str) -> String {
+        match parse_str(s) {
+            Err(Error::Input(p)) => p.to_string(),
+            Err(e) => panic!("unexpected {e}"),
+            Ok(_) => panic!("accepted:\n{s}"),
+        }
+    }
+
+    #[test]
+    fn voltage_recording_parses_with_metadata() {
+        let r = parse_str("# sample_rate_hz=100\n# note: hi\ntime_s,voltage_v,load_g,extra\n0,0.1,0,x\n0.01,0.2,200,y\n").unwrap();
+        assert_eq!(r.len(), 2);
+        assert_eq!(r.unit, "V");
+        assert_eq!(r.protocol_kind, ProtocolKind::LoadG);
+        assert_eq!(r.ignored_columns, vec!["extra".to_string()]);
+    }
+
+    #[test]
+    fn adc_counts_convert_with_bits_and_reference() {
+        let r = parse_str("# adc_bits=12\n# vref_v=3.3\ntime_s,adc_counts,force_n\n0,4095,0\n0.01,0,1\n").unwrap();
+        assert!((r.response[0] - 3.3).abs() < 1e-12 && r.response[1] == 0.0);
+    }
+
+    #[test]
+    fn resistance_converts_through_the_divider_or_stays_in_ohm() {
+        let r = parse_str("# vcc_v=3.3\n# r_m_ohm=1000\n# divider=sensor_high\ntime_s,resistance_ohm,input\n0,1000,0\n1,3000,1\n").unwrap();
+        assert!((r.response[0] - 1.65).abs() < 1e-12 && (r.response[1] - 0.825).abs() < 1e-12);
+        let r = parse_str("time_s,resistance_ohm,input\n0,1000,0\n1,3000,1\n").unwrap();
+        assert_eq!(r.unit, "ohm");
+    }
+
+    #[test]
+    fn missing_and_duplicate_columns() {
+        assert!(problems("time_s,load_g\n0,1\n").contains("exactly one response column"));
+        assert!(problems("time_s,voltage_v,adc_counts,load_g\n0,1,2,3\n").contains("found 2"));
+        assert!(problems("voltage_v,load_g\n0,1\n").contains("no `time_s` column"));
+        assert!(problems("time_s,voltage_v\n0,1\n").contains("exactly one protocol column"));
+        assert!(problems("time_s,time_s,voltage_v,load_g\n0,0,1,1\n").contains("more than once"));
+    }
+
+    #[test]
+    fn bad_cells_name_their_line_all_at_once() {
+        let s = problems("time_s,voltage_v,load_g\n0,0.1,0\n0.01,abc,0\n0.02,NaN,0\n0.03,inf,0\n0.0,0.1,0\n0.05,0.1\n");
+        assert!(s.contains("t.csv:3: voltage_v = \"abc\": not a number"), "{s}");
+        assert!(s.contains("t.csv:4:") && s.contains("NaN or infinite"), "{s}");
+        assert!(s.contains("t.csv:5:"), "{s}");
+        assert!(s.contains("t.csv:6: time_s = 0: time must increase"), "{s}");
+        assert!(s.contains("t.csv:7:") && s.contains("has 2 cells"), "{s}");
+    }
+
+    #[test]
+    fn empty_file_and_header_only() {
+        assert!(problems("").contains("no header and no data"));
+        assert!(problems("# sample_rate_hz=100\n").contains("no header and no data"));
+        assert!(problems("time_s,voltage_v,load_g\n").contains("no data"));
+    }
+
+    #[test]
+    fn contradictory_metadata() {
+        let mut s = String::from("# sample_rate_hz=100\ntime_s,voltage_v,load_g\n");
+        for i in 0..50 {
+            s += &format!("{},0.1,0\n", i as f64 * 0.1);
+        }
+        assert!(problems(&s).contains("contradicts the time column"));
+        assert!(problems("# divider=middle\ntime_s,voltage_v,load_g\n0,1,1\n").contains("sensor_high"));
+        assert!(problems("# adc_bits=40\ntime_s,voltage_v,load_g\n0,1,1\n").contains("1 to 32"));
+        assert!(problems("time_s,adc_counts,load_g\n0,1,1\n").contains("needs `# adc_bits=12`"));
+        assert!(problems("# adc_bits=10\n# vref_v=3.3\ntime_s,adc_counts,load_g\n0,2000,1\n").contains("outside 0..1023"));
+    }
+
+    #[test]
+    fn shared_real_recording_parses() {
+        let path = std::path::Path::new("../shared/data/real/cbsilicone_v10_Ro.csv");
+        if !path.exists() {
+            eprintln!("skipped: {} is absent", path.display());
+            return;
+        }
+        let r = read(path).unwrap();
+        assert_eq!(r.unit, "ohm");
+        assert_eq!(r.protocol_kind, ProtocolKind::Input);
+        assert!(r.len() > 13000);
+    }
+}
