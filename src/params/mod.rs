@@ -7,6 +7,7 @@
 
 pub mod fingertip;
 pub mod rig;
+pub mod sensor;
 mod raw;
 
 pub use raw::{Collector, Schema, SourceFile};

@@ -3,3 +3,4 @@
 pub mod fit;
 pub mod preprocess;
 pub mod recording;
+pub mod sim;

@@ -1,0 +1,240 @@
+//! Sensor-model and protocol parameter files for the simulator.
+
+use super::{Collector, Schema, SourceFile};
+use crate::error::Result;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+type Table = BTreeMap<String, toml::Value>;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Circuit {
+    pub vcc_v: f64,
+    pub r_m_ohm: f64,
+    pub sensor_high: bool,
+    pub adc_bits: u32,
+    pub vref_v: f64,
+    pub sample_rate_hz: f64,
+}
+
+/// Switchable effects; a magnitude of 0 turns an effect off.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Effects {
+    /// Fraction of the equilibrium voltage added per decade of time under constant load.
+    pub creep_per_decade: f64,
+    pub creep_time_s: f64,
+    /// Fraction of (V_eq(F_max) − V_eq(F)) kept on the unloading branch.
+    pub hysteresis: f64,
+    /// Fraction of each step in a second, slower relaxation, and its time constant.
+    pub second_fraction: f64,
+    pub second_tau_s: f64,
+    /// Baseline drift: linear rate and a slow sinusoidal wander.
+    pub drift_v_per_s: f64,
+    pub wander_v: f64,
+    pub wander_period_s: f64,
+    /// Output clipped at this voltage (0 = off).
+    pub saturation_v: f64,
+    /// Handling spike at each placement/removal: amplitude and duration.
+    pub spike_v: f64,
+    pub spike_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensorParams {
+    pub circuit: Circuit,
+    /// Conductance G = g_ref_s · (F / 1 N)^exponent.
+    pub g_ref_s: f64,
+    pub exponent: f64,
+    /// τ(F) = tau0_s + tau_per_n_s · F.
+    pub tau0_s: f64,
+    pub tau_per_n_s: f64,
+    pub noise_v: f64,
+    /// Load on the sensor at zero weight when no rig manifest is given.
+    pub preload_g: f64,
+    /// Dome stiffness for the cover model (N/mm) and the cover's own relaxation.
+    pub dome_stiffness_n_per_mm: f64,
+    pub contact_diameter_mm: f64,
+    pub cover_relax_fraction: f64,
+    pub cover_tau_s: f64,
+    pub effects: Effects,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProtocolParams {
+    /// Weights stacked one by one, then removed in reverse order.
+    pub weights_g: Vec<f64>,
+    pub hold_s: f64,
+    pub baseline_s: f64,
+    pub logging_offset_s: f64,
+    pub logging_jitter_s: f64,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+struct RawSensorFile {
+    kind: Option<String>,
+    circuit: Option<Table>,
+    conductance: Option<Table>,
+    relaxation: Option<Table>,
+    noise: Option<Table>,
+    rig: Option<Table>,
+    cover: Option<Table>,
+    effects: Option<BTreeMap<String, Table>>,
+}
+
+static CIRCUIT: Schema = Schema { fields: &["vcc_v", "r_m_ohm", "divider", "adc_bits", "vref_v", "sample_rate_hz"], tables: &[] };
+static CONDUCTANCE: Schema = Schema { fields: &["g_ref_s", "exponent"], tables: &[] };
+static RELAX: Schema = Schema { fields: &["tau0_s", "tau_per_n_s"], tables: &[] };
+static NOISE: Schema = Schema { fields: &["sigma_v"], tables: &[] };
+static RIG: Schema = Schema { fields: &["preload_g"], tables: &[] };
+static COVER: Schema = Schema { fields: &["dome_stiffness_n_per_mm", "contact_diameter_mm", "relax_fraction", "tau_s"], tables: &[] };
+static CREEP: Schema = Schema { fields: &["per_decade", "time_s"], tables: &[] };
+static HYST: Schema = Schema { fields: &["fraction"], tables: &[] };
+static SECOND: Schema = Schema { fields: &["fraction", "tau_s"], tables: &[] };
+static DRIFT: Schema = Schema { fields: &["rate_v_per_s", "wander_v", "period_s"], tables: &[] };
+static SAT: Schema = Schema { fields: &["level_v"], tables: &[] };
+static SPIKES: Schema = Schema { fields: &["amplitude_v", "duration_s"], tables: &[] };
+static EFFECTS: Schema = Schema {
+    fields: &[],
+    tables: &[("creep", false, &CREEP), ("hysteresis", false, &HYST), ("second_time_constant", false, &SECOND), ("baseline_drift", false, &DRIFT), ("saturation", false, &SAT), ("handling_spikes", false, &SPIKES)],
+};
+pub static SENSOR_SCHEMA: Schema = Schema {
+    fields: &["kind"],
+    tables: &[("circuit", false, &CIRCUIT), ("conductance", false, &CONDUCTANCE), ("relaxation", false, &RELAX), ("noise", false, &NOISE), ("rig", false, &RIG), ("cover", false, &COVER), ("effects", false, &EFFECTS)],
+};
+pub static PROTOCOL_SCHEMA: Schema = Schema { fields: &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s"], tables: &[] };
+
+fn num(c: &mut Collector, t: &Option<Table>, table: &str, key: &str, default: f64, lo: f64, hi: f64) -> Option<f64> {
+    let path = format!("{table}.{key}");
+    let v = match t.as_ref().and_then(|t| t.get(key)) {
+        None => Some(default),
+        Some(toml::Value::Float(f)) => Some(*f),
+        Some(toml::Value::Integer(i)) => Some(*i as f64),
+        Some(other) => {
+            c.push(&path, other, "must be a number");
+            return None;
+        }
+    };
+    c.or_within(v, default, &path, lo, hi)
+}
+
+impl SensorParams {
+    pub fn from_source(src: &SourceFile) -> Result<SensorParams> {
+        let mut c = Collector::new(src);
+        c.problems.extend(src.unknown_keys(&SENSOR_SCHEMA));
+        if !c.problems.is_empty() {
+            return super::finish(None, c.problems);
+        }
+        let mut problems = Vec::new();
+        let raw: Option<RawSensorFile> = src.table("", &mut problems);
+        c.problems.extend(problems);
+        let Some(r) = raw else { return super::finish(None, c.problems) };
+        let _ = &r.kind;
+        let divider = match r.circuit.as_ref().and_then(|t| t.get("divider")) {
+            None => Some(true),
+            Some(toml::Value::String(s)) if s == "sensor_high" => Some(true),
+            Some(toml::Value::String(s)) if s == "sensor_low" => Some(false),
+            Some(v) => {
+                c.push("circuit.divider", v, "use \"sensor_high\" or \"sensor_low\"");
+                None
+            }
+        };
+        let vcc = num(&mut c, &r.circuit, "circuit", "vcc_v", 3.3, 0.1, 48.0);
+        let rm = num(&mut c, &r.circuit, "circuit", "r_m_ohm", 1000.0, 1.0, 1e9);
+        let bits = num(&mut c, &r.circuit, "circuit", "adc_bits", 12.0, 1.0, 32.0);
+        let vref = num(&mut c, &r.circuit, "circuit", "vref_v", 3.3, 0.1, 48.0);
+        let fs = num(&mut c, &r.circuit, "circuit", "sample_rate_hz", 100.0, 1.0, 100000.0);
+        let g = num(&mut c, &r.conductance, "conductance", "g_ref_s", 1e-4, 1e-12, 1.0);
+        let n = num(&mut c, &r.conductance, "conductance", "exponent", 1.0, 0.05, 5.0);
+        let t0 = num(&mut c, &r.relaxation, "relaxation", "tau0_s", 0.25, 0.0, 1000.0);
+        let t1 = num(&mut c, &r.relaxation, "relaxation", "tau_per_n_s", 0.178, 0.0, 1000.0);
+        let sigma = num(&mut c, &r.noise, "noise", "sigma_v", 0.003, 0.0, 10.0);
+        let pre = num(&mut c, &r.rig, "rig", "preload_g", 0.0, 0.0, 100000.0);
+        let ks = num(&mut c, &r.cover, "cover", "dome_stiffness_n_per_mm", 20.0, 0.001, 1e6);
+        let cd = num(&mut c, &r.cover, "cover", "contact_diameter_mm", 12.0, 0.1, 1000.0);
+        let crf = num(&mut c, &r.cover, "cover", "relax_fraction", 0.1, 0.0, 1.0);
+        let ctau = num(&mut c, &r.cover, "cover", "tau_s", 5.0, 0.001, 1e5);
+        let ef = r.effects.clone().unwrap_or_default();
+        let e = |name: &str| ef.get(name).cloned();
+        let eff = Effects {
+            creep_per_decade: num(&mut c, &e("creep"), "effects.creep", "per_decade", 0.0, 0.0, 10.0).unwrap_or(0.0),
+            creep_time_s: num(&mut c, &e("creep"), "effects.creep", "time_s", 1.0, 1e-3, 1e5).unwrap_or(1.0),
+            hysteresis: num(&mut c, &e("hysteresis"), "effects.hysteresis", "fraction", 0.0, 0.0, 1.0).unwrap_or(0.0),
+            second_fraction: num(&mut c, &e("second_time_constant"), "effects.second_time_constant", "fraction", 0.0, 0.0, 1.0).unwrap_or(0.0),
+            second_tau_s: num(&mut c, &e("second_time_constant"), "effects.second_time_constant", "tau_s", 8.0, 1e-3, 1e5).unwrap_or(8.0),
+            drift_v_per_s: num(&mut c, &e("baseline_drift"), "effects.baseline_drift", "rate_v_per_s", 0.0, -10.0, 10.0).unwrap_or(0.0),
+            wander_v: num(&mut c, &e("baseline_drift"), "effects.baseline_drift", "wander_v", 0.0, 0.0, 10.0).unwrap_or(0.0),
+            wander_period_s: num(&mut c, &e("baseline_drift"), "effects.baseline_drift", "period_s", 300.0, 1.0, 1e6).unwrap_or(300.0),
+            saturation_v: num(&mut c, &e("saturation"), "effects.saturation", "level_v", 0.0, 0.0, 48.0).unwrap_or(0.0),
+            spike_v: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "amplitude_v", 0.0, 0.0, 48.0).unwrap_or(0.0),
+            spike_s: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "duration_s", 0.15, 0.001, 10.0).unwrap_or(0.15),
+        };
+        if let Some(b) = bits {
+            if b.fract() != 0.0 {
+                c.push("circuit.adc_bits", b, "must be a whole number");
+            }
+        }
+        let v = (|| {
+            Some(SensorParams {
+                circuit: Circuit { vcc_v: vcc?, r_m_ohm: rm?, sensor_high: divider?, adc_bits: bits? as u32, vref_v: vref?, sample_rate_hz: fs? },
+                g_ref_s: g?,
+                exponent: n?,
+                tau0_s: t0?,
+                tau_per_n_s: t1?,
+                noise_v: sigma?,
+                preload_g: pre?,
+                dome_stiffness_n_per_mm: ks?,
+                contact_diameter_mm: cd?,
+                cover_relax_fraction: crf?,
+                cover_tau_s: ctau?,
+                effects: eff,
+            })
+        })();
+        if let Some(p) = &v {
+            if p.tau0_s + p.tau_per_n_s <= 0.0 {
+                c.push("relaxation.tau0_s", p.tau0_s, "τ must be positive at every load: raise tau0_s or tau_per_n_s");
+            }
+        }
+        super::finish(v, c.problems)
+    }
+}
+
+impl ProtocolParams {
+    pub fn from_source(src: &SourceFile) -> Result<ProtocolParams> {
+        let mut c = Collector::new(src);
+        c.problems.extend(src.unknown_keys(&PROTOCOL_SCHEMA));
+        if !c.problems.is_empty() {
+            return super::finish(None, c.problems);
+        }
+        let t = match &src.value {
+            toml::Value::Table(t) => Some(t.clone().into_iter().collect::<Table>()),
+            _ => None,
+        };
+        let weights = match t.as_ref().and_then(|t| t.get("weights_g")) {
+            Some(toml::Value::Array(a)) => {
+                let w: Vec<Option<f64>> = a.iter().map(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64))).collect();
+                if w.is_empty() || w.iter().any(|x| x.is_none_or(|v| v <= 0.0 || !v.is_finite())) {
+                    c.push("weights_g", format!("{a:?}"), "a non-empty list of positive weights in grams, e.g. [200, 200, 200, 200, 200]");
+                    None
+                } else {
+                    Some(w.into_iter().map(|x| x.unwrap()).collect())
+                }
+            }
+            _ => {
+                c.push("weights_g", "missing", "add `weights_g = [200, 200, 200, 200, 200]`");
+                None
+            }
+        };
+        let hold = num(&mut c, &t, "", "hold_s", 20.0, 1.0, 1e5);
+        let base = num(&mut c, &t, "", "baseline_s", 10.0, 1.0, 1e5);
+        let off = num(&mut c, &t, "", "logging_offset_s", 0.3, -5.0, 5.0);
+        let jit = num(&mut c, &t, "", "logging_jitter_s", 0.15, 0.0, 5.0);
+        let v = (|| Some(ProtocolParams { weights_g: weights?, hold_s: hold?, baseline_s: base?, logging_offset_s: off?, logging_jitter_s: jit? }))();
+        // paths of top-level keys carry a leading "." from the shared helper; tidy them
+        for p in &mut c.problems {
+            if let Some(s) = p.path.strip_prefix('.') {
+                p.path = s.to_string();
+            }
+        }
+        super::finish(v, c.problems)
+    }
+}

@@ -1,0 +1,317 @@
+//! Rig + sensor simulator: protocol → force (weights + plunger preload) → sensor (power-law
+//! conductance, load-dependent first-order relaxation, switchable effects) → divider → ADC →
+//! recording, plus the noise-free truth. Deterministic per seed.
+
+use super::recording::{Divider, Meta, ProtocolKind, Recording};
+use crate::params::sensor::{ProtocolParams, SensorParams};
+use serde::Serialize;
+
+pub const G_N_PER_KG: f64 = 9.80665;
+
+/// SplitMix64: small, fast, deterministic on every platform.
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Rng {
+        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn normal(&mut self) -> f64 {
+        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+/// A PDMS cover between the load and the dome (lumped): the cover carries part of the load in
+/// parallel with the dome, and relaxes with its own time constant.
+#[derive(Debug, Clone, Serialize)]
+pub struct Cover {
+    pub thickness_mm: f64,
+    pub mix_ratio: f64,
+    /// Young's modulus estimate ≈ 20 MPa ÷ mix ratio (Wang et al. 2014).
+    pub modulus_mpa: f64,
+    /// Fraction of the load that reaches the dome at equilibrium.
+    pub dome_share: f64,
+}
+
+impl Cover {
+    pub fn new(thickness_mm: f64, mix_ratio: f64, p: &SensorParams, dome_diameter_mm: f64) -> Cover {
+        let modulus_mpa = 20.0 / mix_ratio;
+        let ring = std::f64::consts::PI / 4.0 * (p.contact_diameter_mm.powi(2) - dome_diameter_mm.powi(2)).max(0.0);
+        let k_cover = modulus_mpa * ring / thickness_mm; // N/mm (MPa·mm²/mm)
+        let dome_share = p.dome_stiffness_n_per_mm / (p.dome_stiffness_n_per_mm + k_cover);
+        Cover { thickness_mm, mix_ratio, modulus_mpa, dome_share }
+    }
+}
+
+/// One step of the protocol as it really happened.
+#[derive(Debug, Clone, Serialize)]
+pub struct TruthStep {
+    pub phase: &'static str,
+    pub index: usize,
+    pub t_land_s: f64,
+    pub t_log_s: f64,
+    pub load_before_g: f64,
+    pub load_after_g: f64,
+    pub force_after_n: f64,
+    /// Noise-free voltage at landing and the first-order equilibrium after it.
+    pub v_start: f64,
+    pub v_eq: f64,
+    /// The first-order part's step: k = V_eq − V(t_land), τ = τ(F).
+    pub k_v: f64,
+    pub tau_s: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Truth {
+    pub seed: u64,
+    pub preload_g: f64,
+    pub steps: Vec<TruthStep>,
+    /// Noise-free output (the recording before noise and quantisation).
+    #[serde(skip)]
+    pub clean_v: Vec<f64>,
+    /// The first-order part alone (no effects), for judging models against the truth.
+    #[serde(skip)]
+    pub first_order_v: Vec<f64>,
+}
+
+impl SensorParams {
+    pub fn conductance(&self, force_n: f64) -> f64 {
+        self.g_ref_s * force_n.max(0.0).powf(self.exponent)
+    }
+    pub fn v_eq(&self, force_n: f64) -> f64 {
+        let c = &self.circuit;
+        let g = self.conductance(force_n);
+        if c.sensor_high {
+            c.vcc_v * c.r_m_ohm * g / (c.r_m_ohm * g + 1.0)
+        } else {
+            c.vcc_v / (c.r_m_ohm * g + 1.0)
+        }
+    }
+    pub fn tau(&self, force_n: f64) -> f64 {
+        (self.tau0_s + self.tau_per_n_s * force_n).max(1e-3)
+    }
+}
+
+/// Simulates one trial.
+pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover: Option<&Cover>, seed: u64) -> (Recording, Truth) {
+    let mut rng = Rng::new(seed);
+    let c = &p.circuit;
+    let dt = 1.0 / c.sample_rate_hz;
+    let e = &p.effects;
+    // schedule: (landing time, load after) for each placement and removal
+    let mut events: Vec<(f64, f64, &'static str, usize)> = Vec::new();
+    let mut load = 0.0;
+    let mut t = proto.baseline_s;
+    for (i, w) in proto.weights_g.iter().enumerate() {
+        load += w;
+        events.push((t, load, "loading", i));
+        t += proto.hold_s;
+    }
+    for (i, w) in proto.weights_g.iter().rev().enumerate() {
+        load -= w;
+        events.push((t, load.max(0.0), "unloading", i));
+        t += proto.hold_s;
+    }
+    let total = t - proto.hold_s + proto.baseline_s;
+    let n = (total / dt).round() as usize + 1;
+    let logs: Vec<f64> = events.iter().map(|ev| ev.0 + proto.logging_offset_s + proto.logging_jitter_s * rng.normal()).collect();
+    let spike_signs: Vec<f64> = events.iter().map(|_| if rng.uniform() < 0.5 { -1.0 } else { 1.0 }).collect();
+    let share = cover.map(|cv| cv.dome_share).unwrap_or(1.0);
+    let force_of = |g: f64| (g + preload_g) / 1000.0 * G_N_PER_KG * share;
+    let (mut time, mut clean, mut fo, mut logged) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+    let f0 = force_of(0.0);
+    let mut v_fast = p.v_eq(f0);
+    let mut v_slow = v_fast;
+    let mut v_cov = 0.0;
+    let mut creep_carry = 0.0;
+    let mut t_change = 0.0;
+    let mut f_max = f0;
+    let mut ev_i = 0;
+    let mut cur_load = 0.0;
+    let mut steps = Vec::new();
+    let mut creep_now = 0.0;
+    for k in 0..n {
+        let tk = k as f64 * dt;
+        while ev_i < events.len() && events[ev_i].0 <= tk + 1e-12 {
+            let (tl, after, phase, idx) = events[ev_i];
+            let f_after = force_of(after);
+            let v_start = (1.0 - e.second_fraction) * v_fast + e.second_fraction * v_slow;
+            let veq = p.v_eq(f_after);
+            steps.push(TruthStep {
+                phase,
+                index: idx,
+                t_land_s: tl,
+                t_log_s: logs[ev_i],
+                load_before_g: cur_load,
+                load_after_g: after,
+                force_after_n: f_after,
+                v_start,
+                v_eq: veq,
+                k_v: veq - v_start,
+                tau_s: p.tau(f_after),
+            });
+            creep_carry = creep_now;
+            t_change = tl;
+            cur_load = after;
+            f_max = f_max.max(f_after);
+            ev_i += 1;
+        }
+        let f = force_of(cur_load);
+        let mut target = p.v_eq(f);
+        if e.hysteresis > 0.0 && f < f_max {
+            target += e.hysteresis * (p.v_eq(f_max) - target);
+        }
+        if k > 0 {
+            let tau = p.tau(f);
+            v_fast = target + (v_fast - target) * (-dt / tau).exp();
+            v_slow = target + (v_slow - target) * (-dt / e.second_tau_s).exp();
+            let cov_target = if cover.is_some() { p.cover_relax_fraction * (target - p.v_eq(f0)) } else { 0.0 };
+            v_cov = cov_target + (v_cov - cov_target) * (-dt / p.cover_tau_s).exp();
+        } else {
+            v_fast = target;
+            v_slow = target;
+        }
+        let first = (1.0 - e.second_fraction) * v_fast + e.second_fraction * v_slow;
+        // creep: log-time growth under the current load, the previous creep relaxing away
+        creep_now = if e.creep_per_decade > 0.0 {
+            let since = (tk - t_change).max(0.0);
+            let decay = creep_carry * (-since / p.tau(f)).exp();
+            decay + e.creep_per_decade * (p.v_eq(f) - p.v_eq(f0)) * (1.0 + since / e.creep_time_s).log10()
+        } else {
+            0.0
+        };
+        let drift = e.drift_v_per_s * tk + e.wander_v * (2.0 * std::f64::consts::PI * tk / e.wander_period_s).sin();
+        let mut v = first + creep_now + drift - v_cov;
+        if e.spike_v > 0.0 {
+            for (j, ev) in events.iter().enumerate() {
+                let s = tk - ev.0 + 0.5 * e.spike_s;
+                if (0.0..e.spike_s).contains(&s) {
+                    v += spike_signs[j] * e.spike_v * (std::f64::consts::PI * s / e.spike_s).sin();
+                }
+            }
+        }
+        if e.saturation_v > 0.0 {
+            v = v.min(e.saturation_v);
+        }
+        time.push(tk);
+        clean.push(v);
+        fo.push(first);
+        // the operator's log: the load changes when logged
+        let lg = logs.iter().zip(&events).filter(|(l, _)| **l <= tk).map(|(_, ev)| ev.1).last().unwrap_or(0.0);
+        logged.push(lg);
+    }
+    let full = (1u64 << c.adc_bits.min(32)) as f64 - 1.0;
+    let recorded: Vec<f64> = clean
+        .iter()
+        .map(|&v| {
+            let noisy = v + p.noise_v * rng.normal();
+            (noisy / c.vref_v * full).round().clamp(0.0, full) * c.vref_v / full
+        })
+        .collect();
+    let meta = Meta {
+        sample_rate_hz: Some(c.sample_rate_hz),
+        vcc_v: Some(c.vcc_v),
+        r_m_ohm: Some(c.r_m_ohm),
+        adc_bits: Some(c.adc_bits),
+        vref_v: Some(c.vref_v),
+        divider: Some(if c.sensor_high { Divider::SensorHigh } else { Divider::SensorLow }),
+        all: Default::default(),
+    };
+    let rec = Recording { source: format!("sim-{seed}.csv"), meta, time_s: time, response: recorded, unit: "V", response_column: "voltage_v", protocol: logged, protocol_kind: ProtocolKind::LoadG, ignored_columns: vec![] };
+    (rec, Truth { seed, preload_g, steps, clean_v: clean, first_order_v: fo })
+}
+
+/// Writes a recording in the documented CSV format.
+pub fn to_csv(rec: &Recording, comment: &str) -> String {
+    let mut s = String::with_capacity(rec.len() * 28 + 256);
+    s.push_str(&format!("# {comment}\n"));
+    let m = &rec.meta;
+    if let Some(v) = m.sample_rate_hz {
+        s.push_str(&format!("# sample_rate_hz={v}\n"));
+    }
+    if let Some(v) = m.vcc_v {
+        s.push_str(&format!("# vcc_v={v}\n"));
+    }
+    if let Some(v) = m.r_m_ohm {
+        s.push_str(&format!("# r_m_ohm={v}\n"));
+    }
+    if let Some(v) = m.adc_bits {
+        s.push_str(&format!("# adc_bits={v}\n"));
+    }
+    if let Some(v) = m.vref_v {
+        s.push_str(&format!("# vref_v={v}\n"));
+    }
+    if let Some(d) = m.divider {
+        s.push_str(&format!("# divider={}\n", if d == Divider::SensorHigh { "sensor_high" } else { "sensor_low" }));
+    }
+    s.push_str(&format!("time_s,{},{}\n", rec.response_column, rec.protocol_kind.column()));
+    for i in 0..rec.len() {
+        s.push_str(&format!("{:.4},{:.6},{}\n", rec.time_s[i], rec.response[i], rec.protocol[i]));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::SourceFile;
+
+    pub fn defaults() -> (SensorParams, ProtocolParams) {
+        let s = SensorParams::from_source(&SourceFile::parse("s.toml", std::fs::read_to_string("params/sensor.toml").unwrap()).unwrap()).unwrap();
+        let p = ProtocolParams::from_source(&SourceFile::parse("p.toml", std::fs::read_to_string("params/protocol-1000g.toml").unwrap()).unwrap()).unwrap();
+        (s, p)
+    }
+
+    #[test]
+    fn deterministic_per_seed_and_different_across_seeds() {
+        let (s, p) = defaults();
+        let (a, _) = simulate(&s, &p, 20.0, None, 7);
+        let (b, _) = simulate(&s, &p, 20.0, None, 7);
+        let (c, _) = simulate(&s, &p, 20.0, None, 8);
+        assert_eq!(a.response, b.response);
+        assert_ne!(a.response, c.response);
+    }
+
+    #[test]
+    fn first_order_truth_matches_the_papers_magnitudes() {
+        let (s, p) = defaults();
+        let (_, truth) = simulate(&s, &p, 0.0, None, 1);
+        let load: Vec<&TruthStep> = truth.steps.iter().filter(|x| x.phase == "loading").collect();
+        assert_eq!(load.len(), 5);
+        assert!((load[0].tau_s - 0.6).abs() < 0.05, "{}", load[0].tau_s);
+        assert!((load[4].tau_s - 2.0).abs() < 0.1, "{}", load[4].tau_s);
+        for w in load.windows(2) {
+            assert!(w[1].k_v < w[0].k_v, "k must fall with weight");
+        }
+    }
+
+    #[test]
+    fn csv_round_trips_through_the_parser() {
+        let (s, p) = defaults();
+        let (r, _) = simulate(&s, &p, 20.0, None, 3);
+        let text = to_csv(&r, "test");
+        let back = crate::sensor::recording::parse("x.csv", std::io::Cursor::new(text.into_bytes())).unwrap();
+        assert_eq!(back.len(), r.len());
+        assert!(back.response.iter().zip(&r.response).all(|(a, b)| (a - b).abs() < 1e-6));
+    }
+
+    #[test]
+    fn a_cover_shares_the_load() {
+        let (s, _) = defaults();
+        let cv = Cover::new(1.5, 10.0, &s, 8.0);
+        assert!(cv.dome_share > 0.0 && cv.dome_share < 1.0);
+        assert!((cv.modulus_mpa - 2.0).abs() < 1e-12);
+        let stiffer = Cover::new(1.5, 5.0, &s, 8.0);
+        assert!(stiffer.dome_share < cv.dome_share);
+    }
+}
