@@ -19,8 +19,11 @@ pub struct Trial {
     pub t_log: f64,
     /// Detected onset: the first sample clearly off the pre-step level.
     pub t_on: f64,
-    /// Index of the first post-onset sample used in the fit (samples before it are the pre-step level).
+    /// Index of the first post-onset sample used in the fit.
     pub post: usize,
+    /// Samples before this index are the pre-step level; those between it and `post` straddle the
+    /// onset (a filtered sample there mixes both) and are left out.
+    pub pre_end: usize,
     /// End of the hold.
     pub t_end: f64,
 }
@@ -38,7 +41,9 @@ pub fn trial_window(series: &Series, step: &Step, recording: &str) -> Option<Tri
     let search = 2.0f64.min(0.4 * (step.t_end - step.t_log));
     let base_len = 2.0f64;
     let t0 = step.t_log - search - base_len.min(hold_prev);
-    let idx: Vec<usize> = (0..series.t.len()).filter(|&i| series.ok[i] && series.t[i] >= t0 && series.t[i] <= step.t_end - 0.05).collect();
+    // the next weight may land before it is logged: stop the window a search span before the next log
+    let t_stop = step.t_end - search;
+    let idx: Vec<usize> = (0..series.t.len()).filter(|&i| series.ok[i] && series.t[i] >= t0 && series.t[i] <= t_stop).collect();
     if idx.len() < 12 {
         return None;
     }
@@ -49,7 +54,7 @@ pub fn trial_window(series: &Series, step: &Step, recording: &str) -> Option<Tri
         base = v[..3.min(v.len())].to_vec();
     }
     let b0 = median(&mut base);
-    let mut tail: Vec<f64> = t.iter().zip(&v).filter(|(tt, _)| **tt > step.t_end - 1.0).map(|(_, vv)| *vv).collect();
+    let mut tail: Vec<f64> = t.iter().zip(&v).filter(|(tt, _)| **tt > t_stop - 1.0).map(|(_, vv)| *vv).collect();
     let v_end = median(&mut tail);
     let thr = (6.0 * series.sigma).max(0.05 * (v_end - b0).abs());
     let mut on = None;
@@ -65,11 +70,12 @@ pub fn trial_window(series: &Series, step: &Step, recording: &str) -> Option<Tri
             break;
         }
     }
-    let post = on.unwrap_or_else(|| t.iter().position(|&x| x >= step.t_log).unwrap_or(0));
-    if post < 2 || t.len() - post < 8 {
+    let on = on.unwrap_or_else(|| t.iter().position(|&x| x >= step.t_log).unwrap_or(0));
+    let (pre_end, post) = (on.saturating_sub(2), on + 1);
+    if pre_end < 2 || t.len() < post + 8 {
         return None;
     }
-    Some(Trial { recording: recording.to_string(), t_on: t[post], t, v, t_log: step.t_log, post, t_end: step.t_end })
+    Some(Trial { recording: recording.to_string(), t_on: t[post], t, v, t_log: step.t_log, post, pre_end, t_end: step.t_end })
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -129,7 +135,7 @@ fn solve_linear(d: &StepData, tau: f64) -> Option<(Vec<f64>, f64)> {
     let mut yy = 0.0;
     let mut row = vec![0.0; p];
     for (i, tr) in d.trials.iter().enumerate() {
-        for j in 0..tr.t.len() {
+        for j in (0..tr.pre_end).chain(tr.post..tr.t.len()) {
             row.iter_mut().for_each(|x| *x = 0.0);
             row[i] = 1.0;
             if j >= tr.post {
@@ -157,7 +163,7 @@ fn rss_direct(d: &StepData, theta: &[f64], tau: f64) -> f64 {
     let w = d.trials.len();
     let mut s = 0.0;
     for (i, tr) in d.trials.iter().enumerate() {
-        for j in 0..tr.t.len() {
+        for j in (0..tr.pre_end).chain(tr.post..tr.t.len()) {
             let m = if j >= tr.post { theta[i] + theta[2 * w] + theta[w + i] * (-(tr.t[j] - tr.t_on) / tau).exp() } else { theta[i] };
             s += (tr.v[j] - m).powi(2);
         }
@@ -168,7 +174,7 @@ fn rss_direct(d: &StepData, theta: &[f64], tau: f64) -> f64 {
 /// Variable projection over τ.
 pub fn varpro(d: &StepData) -> Option<StepFit> {
     let w = d.trials.len();
-    let n: usize = d.trials.iter().map(|t| t.t.len()).sum();
+    let n: usize = d.trials.iter().map(|t| t.pre_end + t.t.len() - t.post).sum();
     if w == 0 || n < 2 * w + 4 {
         return None;
     }
@@ -238,7 +244,7 @@ pub fn varpro(d: &StepData) -> Option<StepFit> {
     let p = 2 * w + 2;
     let mut jtj = DMatrix::<f64>::zeros(p, p);
     for (i, tr) in d.trials.iter().enumerate() {
-        for j in 0..tr.t.len() {
+        for j in (0..tr.pre_end).chain(tr.post..tr.t.len()) {
             let mut row = vec![0.0; p];
             row[i] = 1.0;
             if j >= tr.post {
@@ -364,7 +370,7 @@ mod tests {
                     })
                     .collect();
                 let post = t.iter().position(|&x| x >= t0 + 0.02).unwrap();
-                Trial { recording: format!("r{i}"), t_on: t[post], t, v, t_log: 5.0, post, t_end: 25.0 }
+                Trial { recording: format!("r{i}"), t_on: t[post], t, v, t_log: 5.0, post, pre_end: post - 3, t_end: 25.0 }
             })
             .collect();
         StepData { step: Step { phase: Phase::Loading, index: 0, t_log: 5.0, t_end: 25.0, before: 0.0, after: 200.0 }, trials }

@@ -1,5 +1,7 @@
 //! The sensor loop: recordings → preprocessing → fits → fashion curves → reports; the simulator.
 
+pub mod analyze;
+pub mod fashion;
 pub mod fit;
 pub mod preprocess;
 pub mod recording;

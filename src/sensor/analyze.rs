@@ -1,0 +1,222 @@
+//! CSV → recording → preprocessing → step fits (lsq and/or the paper's method) → fashion curves →
+//! one report. Diagnosis, tables and plots read the report only.
+
+use super::fashion::{self, Fashion, Readout};
+use super::fit::{self, PaperFit, StepData, StepFit};
+use super::preprocess::{self, Phase, Series, SpikeWindow, Step};
+use super::recording::{Divider, ProtocolKind, Recording};
+use serde::Serialize;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    Paper,
+    Lsq,
+    Both,
+}
+
+#[derive(Debug, Clone)]
+pub struct Options {
+    pub pre: preprocess::Options,
+    pub method: Method,
+    pub paper_grid: usize,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options { pre: preprocess::Options::default(), method: Method::Lsq, paper_grid: 100 }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct RecordingInfo {
+    pub source: String,
+    pub samples: usize,
+    pub sample_rate_hz: f64,
+    pub unit: String,
+    pub noise_sigma: f64,
+    pub steps: usize,
+    pub spikes: Vec<SpikeWindow>,
+    pub notes: Vec<String>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct StepReport {
+    pub phase: Phase,
+    pub index: usize,
+    pub before: f64,
+    pub after: f64,
+    /// The load W of the paper's Eq. 2, in kg when the protocol is a load or force.
+    pub weight: f64,
+    pub weight_unit: &'static str,
+    /// Pooled lsq fit over all trials.
+    pub lsq: Option<StepFit>,
+    pub lsq_eq4: Option<f64>,
+    /// k divided by the weight, the paper's normalisation (V per kg).
+    pub lsq_k_per_weight: Option<f64>,
+    /// One lsq fit per trial.
+    pub lsq_trials: Vec<StepFit>,
+    pub paper: Option<PaperFit>,
+    pub trials: usize,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub schema: &'static str,
+    pub unit: String,
+    pub protocol: &'static str,
+    pub recordings: Vec<RecordingInfo>,
+    pub steps: Vec<StepReport>,
+    pub fashion: Option<Fashion>,
+    pub notes: Vec<String>,
+}
+
+/// Everything the fits were made from, kept for plots and diagnosis.
+pub struct Prepared {
+    pub series: Vec<Series>,
+    pub steps: Vec<Vec<Step>>,
+    pub groups: Vec<StepData>,
+}
+
+pub fn readout(rec: &Recording) -> Option<Readout> {
+    match (rec.unit, rec.meta.vcc_v, rec.meta.r_m_ohm, rec.meta.divider) {
+        ("V", Some(vcc_v), Some(r_m_ohm), Some(Divider::SensorHigh)) => Some(Readout::DividerHigh { vcc_v, r_m_ohm }),
+        ("V", Some(vcc_v), Some(r_m_ohm), Some(Divider::SensorLow)) => Some(Readout::DividerLow { vcc_v, r_m_ohm }),
+        ("ohm", ..) => Some(Readout::Ohm),
+        _ => None,
+    }
+}
+
+/// Preprocesses every recording and groups the steps across trials by (phase, index).
+pub fn prepare(recs: &[Recording], opts: &Options) -> (Prepared, Vec<RecordingInfo>) {
+    let mut infos = Vec::new();
+    let mut series = Vec::new();
+    let mut steps_all = Vec::new();
+    for r in recs {
+        let mut o = opts.pre.clone();
+        // the paper's filter is a 10-sample block mean at 100 Hz; at other rates it stays off
+        if (r.sample_rate_hz() - 100.0).abs() > 5.0 {
+            o.mean_filter = false;
+        }
+        let (s, spikes) = preprocess::prepare(r, &o);
+        let (steps, mut notes) = preprocess::segment(r, &o);
+        if !o.mean_filter && opts.pre.mean_filter {
+            notes.push(format!("mean filter off: the recording is at {:.2} Hz, not 100 Hz", r.sample_rate_hz()));
+        }
+        infos.push(RecordingInfo { source: r.source.clone(), samples: r.len(), sample_rate_hz: r.sample_rate_hz(), unit: r.unit.to_string(), noise_sigma: s.sigma, steps: steps.len(), spikes, notes });
+        series.push(s);
+        steps_all.push(steps);
+    }
+    let mut keys: Vec<(Phase, usize)> = steps_all.iter().flatten().map(|s| (s.phase, s.index)).collect();
+    keys.sort_by_key(|k| (k.0 == Phase::Unloading, k.1));
+    keys.dedup();
+    let mut groups = Vec::new();
+    for key in keys {
+        let mut trials = Vec::new();
+        let mut step0 = None;
+        for (ri, steps) in steps_all.iter().enumerate() {
+            if let Some(st) = steps.iter().find(|s| (s.phase, s.index) == key) {
+                if let Some(tr) = fit::trial_window(&series[ri], st, &recs[ri].source) {
+                    trials.push(tr);
+                    step0.get_or_insert_with(|| st.clone());
+                }
+            }
+        }
+        if let Some(step) = step0 {
+            groups.push(StepData { step, trials });
+        }
+    }
+    (Prepared { series, steps: steps_all, groups }, infos)
+}
+
+fn weight_of(kind: ProtocolKind, s: &Step) -> (f64, &'static str) {
+    let w = match s.phase {
+        Phase::Loading => s.after,
+        Phase::Unloading => s.before,
+    };
+    match kind.grams(w) {
+        Some(g) => (g / 1000.0, "kg"),
+        None => ((s.after - s.before).abs(), "input"),
+    }
+}
+
+pub fn analyze(recs: &[Recording], opts: &Options) -> (Report, Prepared) {
+    let (prep, infos) = prepare(recs, opts);
+    let kind = recs.first().map(|r| r.protocol_kind).unwrap_or(ProtocolKind::Input);
+    let mut steps = Vec::new();
+    for g in &prep.groups {
+        let (weight, weight_unit) = weight_of(kind, &g.step);
+        let lsq = if opts.method != Method::Paper { fit::varpro(g) } else { None };
+        let lsq_eq4 = lsq.as_ref().map(|f| fit::eq4(g, |i, t| f.model(i, t)));
+        let lsq_trials = if opts.method != Method::Paper {
+            g.trials.iter().filter_map(|tr| fit::varpro(&StepData { step: g.step.clone(), trials: vec![tr.clone()] })).collect()
+        } else {
+            vec![]
+        };
+        let paper = if opts.method != Method::Lsq { fit::paper(g, weight.max(1e-12), opts.paper_grid) } else { None };
+        steps.push(StepReport {
+            phase: g.step.phase,
+            index: g.step.index,
+            before: g.step.before,
+            after: g.step.after,
+            weight,
+            weight_unit,
+            lsq_k_per_weight: lsq.as_ref().map(|f| f.k / weight.max(1e-12)),
+            lsq,
+            lsq_eq4,
+            lsq_trials,
+            paper,
+            trials: g.trials.len(),
+        });
+    }
+    let mut notes = Vec::new();
+    let fashion = match recs.first().and_then(readout) {
+        Some(ro) if opts.method != Method::Paper => {
+            let mut levels = Vec::new();
+            let mut taus = Vec::new();
+            for s in steps.iter().filter(|s| s.phase == Phase::Loading) {
+                if let Some(f) = &s.lsq {
+                    let v0 = f.trials.iter().map(|t| t.v0).sum::<f64>() / f.trials.len() as f64;
+                    if s.index == 0 {
+                        levels.push((s.before, v0));
+                    }
+                    levels.push((s.after, v0 + f.k));
+                    taus.push((s.after, f.tau_s));
+                }
+            }
+            let f = fashion::fit(ro, &levels, &taus);
+            if f.is_none() {
+                notes.push(format!("fashion curves need at least three load levels; found {}", levels.len()));
+            }
+            f
+        }
+        _ => {
+            notes.push("fashion curves need the divider metadata (vcc_v, r_m_ohm, divider) or a resistance recording".into());
+            None
+        }
+    };
+    let report = Report {
+        schema: "tipforge.fit/1",
+        unit: recs.first().map(|r| r.unit.to_string()).unwrap_or_default(),
+        protocol: kind.column(),
+        recordings: infos,
+        steps,
+        fashion,
+        notes,
+    };
+    (report, prep)
+}
+
+/// The table in the layout of the paper's Tables 1–2 (weight, k, τ, error), for one method.
+pub fn table(report: &Report, paper: bool) -> (String, String) {
+    let mut csv = String::from("phase,step,load_before,load_after,weight,k,tau_s,eq4_error\n");
+    let mut md = format!("| phase | step | load | weight ({}) | k | τ (s) | Eq. 4 error ({}) |\n|---|---|---|---|---|---|---|\n", report.steps.first().map(|s| s.weight_unit).unwrap_or("kg"), report.unit);
+    for s in &report.steps {
+        let row = if paper { s.paper.as_ref().map(|p| (p.k, p.tau_s, p.eq4)) } else { s.lsq.as_ref().map(|f| (s.lsq_k_per_weight.unwrap_or(f64::NAN), f.tau_s, s.lsq_eq4.unwrap_or(f64::NAN))) };
+        if let Some((k, tau, e)) = row {
+            let ph = if s.phase == Phase::Loading { "loading" } else { "unloading" };
+            csv += &format!("{ph},{},{},{},{},{:.6},{:.6},{:.6}\n", s.index, s.before, s.after, s.weight, k, tau, e);
+            md += &format!("| {ph} | {} | {} → {} | {} | {:.4} | {:.4} | {:.4} |\n", s.index + 1, s.before, s.after, s.weight, k, tau, e);
+        }
+    }
+    (csv, md)
+}
