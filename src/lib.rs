@@ -9,6 +9,7 @@ pub mod fingertip;
 pub mod mesh;
 pub mod params;
 pub mod part;
+pub mod plot;
 pub mod preview;
 pub mod rig;
 pub mod sensor;

@@ -27,6 +27,50 @@ enum Cmd {
         #[arg(long)]
         preview: bool,
     },
+    /// Fit the first-order step model to recordings (one trial per CSV) and write tables,
+    /// fashion curves, a JSON report and plots.
+    Fit {
+        /// Recording CSV files (format: docs/recording-format.md).
+        #[arg(required = true)]
+        recordings: Vec<PathBuf>,
+        /// paper: the paper's Eq. 2–4 grid search; lsq: exact least squares; both.
+        #[arg(long, value_enum, default_value = "lsq")]
+        method: MethodArg,
+        /// Output folder.
+        #[arg(long, default_value = "out/fit")]
+        out: PathBuf,
+        /// Turn off the paper's 10-sample mean filter.
+        #[arg(long)]
+        no_filter: bool,
+    },
+    /// Simulate the rig and sensor: write a recording and its noise-free truth.
+    Simulate {
+        #[arg(long, default_value = "params/sensor.toml")]
+        sensor: PathBuf,
+        #[arg(long, default_value = "params/protocol-1000g.toml")]
+        protocol: PathBuf,
+        /// out/manifest.json of a build with the rig: the plunger's mass is the preload.
+        #[arg(long)]
+        rig: Option<PathBuf>,
+        /// A mold parameter file: simulate the sensor under its PDMS cover.
+        #[arg(long)]
+        cover: Option<PathBuf>,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Number of trials (files NAME-1.csv …, seeds seed, seed+1, …).
+        #[arg(long, default_value_t = 1)]
+        trials: usize,
+        /// Output recording (the truth goes to truth/NAME.json and truth/NAME.csv beside it).
+        #[arg(short, long)]
+        o: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum MethodArg {
+    Paper,
+    Lsq,
+    Both,
 }
 
 fn main() -> ExitCode {
@@ -56,6 +100,28 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{n}");
             }
             println!("wrote {} file(s)", report.written.len());
+            Ok(())
+        }
+        Cmd::Fit { recordings, method, out, no_filter } => {
+            use tipforge::sensor::analyze::Method;
+            let m = match method {
+                MethodArg::Paper => Method::Paper,
+                MethodArg::Lsq => Method::Lsq,
+                MethodArg::Both => Method::Both,
+            };
+            let s = tipforge::sensor::cli::fit(&recordings, m, !no_filter, &out)?;
+            for l in &s.lines {
+                println!("{l}");
+            }
+            println!("wrote {} file(s) to {}", s.written.len(), out.display());
+            Ok(())
+        }
+        Cmd::Simulate { sensor, protocol, rig, cover, seed, trials, o } => {
+            let spec = tipforge::sensor::cli::SimSpec { sensor: &sensor, protocol: &protocol, rig: rig.as_deref(), cover: cover.as_deref(), seed, trials, out: &o };
+            let files = tipforge::sensor::cli::simulate(&spec)?;
+            for f in &files {
+                println!("wrote {}", f.display());
+            }
             Ok(())
         }
     }

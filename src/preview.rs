@@ -7,20 +7,33 @@ use crate::mesh::{cross, dot, norm, sub, unit, Mesh, P3};
 pub const WIDTH: u32 = 960;
 pub const HEIGHT: u32 = 480;
 
-struct Canvas {
-    w: usize,
-    h: usize,
-    rgb: Vec<u8>,
+pub(crate) struct Canvas {
+    pub w: usize,
+    pub h: usize,
+    pub rgb: Vec<u8>,
     depth: Vec<f64>,
 }
 
 impl Canvas {
-    fn new(w: usize, h: usize) -> Canvas {
+    pub fn new(w: usize, h: usize) -> Canvas {
         Canvas { w, h, rgb: vec![245; w * h * 3], depth: vec![f64::INFINITY; w * h] }
     }
-    fn put(&mut self, x: usize, y: usize, c: [u8; 3]) {
-        let i = (y * self.w + x) * 3;
-        self.rgb[i..i + 3].copy_from_slice(&c);
+    pub fn put(&mut self, x: usize, y: usize, c: [u8; 3]) {
+        if x < self.w && y < self.h {
+            let i = (y * self.w + x) * 3;
+            self.rgb[i..i + 3].copy_from_slice(&c);
+        }
+    }
+    pub fn png(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        {
+            let mut enc = png::Encoder::new(&mut out, self.w as u32, self.h as u32);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            let mut wr = enc.write_header().expect("png header in memory");
+            wr.write_image_data(&self.rgb).expect("png data in memory");
+        }
+        out
     }
 }
 
@@ -128,11 +141,22 @@ fn glyph(ch: char) -> [u8; 7] {
         '_' => [0, 0, 0, 0, 0, 0, 31],
         '=' => [0, 0, 31, 0, 31, 0, 0],
         '%' => [24, 25, 2, 4, 8, 19, 3],
+        '+' => [0, 4, 4, 31, 4, 4, 0],
+        '>' => [8, 4, 2, 1, 2, 4, 8],
+        '<' => [2, 4, 8, 16, 8, 4, 2],
+        '[' => [14, 8, 8, 8, 8, 8, 14],
+        ']' => [14, 2, 2, 2, 2, 2, 14],
+        '*' => [0, 4, 21, 14, 21, 4, 0],
         _ => [0; 7],
     }
 }
 
-fn text(cv: &mut Canvas, s: &str, x0: usize, y0: usize, px: usize) {
+/// Draws text with the 5×7 font at pixel size `px`.
+pub(crate) fn text(cv: &mut Canvas, s: &str, x0: usize, y0: usize, px: usize) {
+    text_color(cv, s, x0, y0, px, [30, 30, 30]);
+}
+
+pub(crate) fn text_color(cv: &mut Canvas, s: &str, x0: usize, y0: usize, px: usize, color: [u8; 3]) {
     for (k, ch) in s.chars().enumerate() {
         let g = glyph(ch);
         for (row, bits) in g.iter().enumerate() {
@@ -142,7 +166,7 @@ fn text(cv: &mut Canvas, s: &str, x0: usize, y0: usize, px: usize) {
                         for dx in 0..px {
                             let (x, y) = (x0 + (k * 6 + col) * px + dx, y0 + row * px + dy);
                             if x < cv.w && y < cv.h {
-                                cv.put(x, y, [30, 30, 30]);
+                                cv.put(x, y, color);
                             }
                         }
                     }
@@ -163,15 +187,7 @@ pub fn render(mesh: &Mesh, name: &str) -> Vec<u8> {
     let (lo, hi) = mesh.bbox();
     let caption = format!("{name}  {:.1} X {:.1} X {:.1} MM", hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
     text(&mut cv, &caption, 12, 10, 3);
-    let mut out = Vec::new();
-    {
-        let mut enc = png::Encoder::new(&mut out, WIDTH, HEIGHT);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut wr = enc.write_header().expect("png header in memory");
-        wr.write_image_data(&cv.rgb).expect("png data in memory");
-    }
-    out
+    cv.png()
 }
 
 #[cfg(test)]

@@ -1,8 +1,10 @@
 //! The sensor loop: recordings → preprocessing → fits → fashion curves → reports; the simulator.
 
 pub mod analyze;
+pub mod cli;
 pub mod fashion;
 pub mod fit;
 pub mod preprocess;
+pub mod output;
 pub mod recording;
 pub mod sim;

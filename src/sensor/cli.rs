@@ -1,0 +1,185 @@
+//! Library side of the `fit` and `simulate` commands (the binary only parses arguments).
+
+use super::analyze::{self, Method, Options};
+use super::recording::{self, Recording};
+use super::sim::{self, Cover};
+use crate::error::{Error, Problem, Problems, Result};
+use crate::export::Staged;
+use crate::params::sensor::{ProtocolParams, SensorParams};
+use crate::params::{read_source, SourceFile};
+use std::path::{Path, PathBuf};
+
+fn input(file: &str, path: &str, value: impl ToString, message: impl Into<String>) -> Error {
+    Error::Input(Problems(vec![Problem { file: file.into(), line: None, path: path.into(), value: value.to_string(), message: message.into() }]))
+}
+
+/// Reads every recording, collecting every file's problems before failing.
+pub fn read_all(paths: &[PathBuf], progress: bool) -> Result<Vec<Recording>> {
+    let mut recs = Vec::new();
+    let mut problems = Vec::new();
+    for (i, p) in paths.iter().enumerate() {
+        if progress {
+            eprintln!("[{}/{}] reading {}", i + 1, paths.len(), p.display());
+        }
+        match recording::read(p) {
+            Ok(r) => recs.push(r),
+            Err(Error::Input(ps)) => problems.extend(ps.0),
+            Err(Error::Io { path, source }) => problems.push(Problem { file: path.display().to_string(), line: None, path: "(file)".into(), value: "unreadable".into(), message: format!("{source}: check the path") }),
+            Err(e) => return Err(e),
+        }
+    }
+    if !problems.is_empty() {
+        return Err(Error::Input(Problems(problems)));
+    }
+    if recs.is_empty() {
+        return Err(input("(command line)", "REC", "none", "give at least one recording CSV"));
+    }
+    let units: Vec<&str> = recs.iter().map(|r| r.unit).collect();
+    if units.iter().any(|u| *u != units[0]) {
+        return Err(input(&recs[0].source, "response unit", units.join(", "), "all recordings of one fit must have the same response unit"));
+    }
+    Ok(recs)
+}
+
+pub struct FitSummary {
+    pub lines: Vec<String>,
+    pub written: Vec<PathBuf>,
+}
+
+pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Result<FitSummary> {
+    let recs = read_all(paths, paths.len() > 3)?;
+    let mut opts = Options { method, ..Options::default() };
+    opts.pre.mean_filter = filter;
+    let (report, prep) = analyze::analyze(&recs, &opts);
+    let mut lines = Vec::new();
+    for r in &report.recordings {
+        lines.push(format!("{}: {} samples at {:.2} Hz, {} steps, {} handling spike(s) excluded, noise {:.4} {}", r.source, r.samples, r.sample_rate_hz, r.steps, r.spikes.len(), r.noise_sigma, r.unit));
+        for n in &r.notes {
+            lines.push(format!("  note: {n}"));
+        }
+    }
+    for s in &report.steps {
+        let mut l = format!("{:?} step {} ({} → {}), {} trial(s):", s.phase, s.index + 1, s.before, s.after, s.trials);
+        if let Some(f) = &s.lsq {
+            l += &format!(" lsq k = {:.4} ± {:.4} {}, τ = {:.3} ± {:.3} s, Eq.4 {:.4};", f.k, f.se_k, report.unit, f.tau_s, f.se_tau_s, s.lsq_eq4.unwrap_or(f64::NAN));
+        }
+        if let Some(p) = &s.paper {
+            l += &format!(" paper k = {:.4} per {}, τ = {:.3} s, Eq.4 {:.4}", p.k, s.weight_unit, p.tau_s, p.eq4);
+        }
+        lines.push(l);
+    }
+    if let Some(f) = &report.fashion {
+        lines.push(format!("fashion: conductance ∝ (load + {:.1})^{:.3}; τ = {:.3} + {:.5}·load s", f.preload, f.n, f.tau0_s, f.tau1_s_per_unit));
+    }
+    for n in &report.notes {
+        lines.push(format!("note: {n}"));
+    }
+    let written = analyze_stage(&report, &prep, method, out)?;
+    Ok(FitSummary { lines, written })
+}
+
+fn analyze_stage(report: &analyze::Report, prep: &analyze::Prepared, method: Method, out: &Path) -> Result<Vec<PathBuf>> {
+    super::output::stage(report, prep, method, out).commit()
+}
+
+/// Where the simulated load comes from.
+pub fn preload_from_manifest(path: &Path) -> Result<f64> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| input(&path.display().to_string(), "(json)", "invalid", format!("not a tipforge manifest: {e}")))?;
+    v.get("rigs")
+        .and_then(|r| r.as_object())
+        .and_then(|o| o.values().next())
+        .and_then(|r| r.get("preload_g"))
+        .and_then(|p| p.as_f64())
+        .ok_or_else(|| input(&path.display().to_string(), "rigs.*.preload_g", "missing", "the manifest has no rig: run `tipforge build` with params/rig.toml first"))
+}
+
+/// Cover thickness and mix ratio from a mold file's `[cover]` table, and the dome diameter from
+/// the fingertip file it refers to.
+pub fn cover_from_mold(path: &Path, sensor: &SensorParams) -> Result<Cover> {
+    let src = read_source(path)?;
+    let cover = src.value.get("cover");
+    let num = |key: &str, default: f64| cover.and_then(|c| c.get(key)).and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64))).unwrap_or(default);
+    let thickness = num("thickness_mm", 1.5);
+    let ratio = num("mix_ratio", 10.0);
+    if thickness <= 0.0 || ratio <= 0.0 {
+        return Err(input(&src.file, "cover.thickness_mm / cover.mix_ratio", format!("{thickness} / {ratio}"), "must be positive"));
+    }
+    let mut dome = 8.0;
+    if let Some(ft) = src.value.get("fingertip").and_then(|v| v.as_str()) {
+        let fp = path.parent().unwrap_or(Path::new(".")).join(ft);
+        if let Ok(f) = read_source(&fp) {
+            if let Some(d) = f.value.get("sensor").and_then(|s| s.as_array()).and_then(|a| a.first()).and_then(|s| s.get("dome_diameter_mm")).and_then(|d| d.as_float()) {
+                dome = d;
+            }
+        }
+    }
+    Ok(Cover::new(thickness, ratio, sensor, dome))
+}
+
+pub struct SimSpec<'a> {
+    pub sensor: &'a Path,
+    pub protocol: &'a Path,
+    pub rig: Option<&'a Path>,
+    pub cover: Option<&'a Path>,
+    pub seed: u64,
+    pub trials: usize,
+    pub out: &'a Path,
+}
+
+fn load_sensor(path: &Path) -> Result<SensorParams> {
+    SensorParams::from_source(&read_source(path)?)
+}
+
+pub fn load_protocol(path: &Path) -> Result<ProtocolParams> {
+    ProtocolParams::from_source(&read_source(path)?)
+}
+
+pub fn load_sensor_text(file: &str, text: String) -> Result<SensorParams> {
+    SensorParams::from_source(&SourceFile::parse(file, text)?)
+}
+
+/// Simulates `trials` recordings; returns the files written.
+pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
+    let (s, p) = (load_sensor(spec.sensor), load_protocol(spec.protocol));
+    let (s, p) = match (s, p) {
+        (Ok(s), Ok(p)) => (s, p),
+        (Err(Error::Input(mut a)), Err(Error::Input(b))) => {
+            a.0.extend(b.0);
+            return Err(Error::Input(a));
+        }
+        (Err(e), _) | (_, Err(e)) => return Err(e),
+    };
+    let preload = match spec.rig {
+        Some(m) => preload_from_manifest(m)?,
+        None => s.preload_g,
+    };
+    let cover = match spec.cover {
+        Some(c) => Some(cover_from_mold(c, &s)?),
+        None => None,
+    };
+    let mut st = Staged::default();
+    let stem = spec.out.file_stem().and_then(|x| x.to_str()).unwrap_or("rec").to_string();
+    let dir = spec.out.parent().unwrap_or(Path::new(""));
+    for k in 0..spec.trials.max(1) {
+        let seed = spec.seed + k as u64;
+        let (mut rec, truth) = sim::simulate(&s, &p, preload, cover.as_ref(), seed);
+        let name = if spec.trials > 1 { format!("{stem}-{}", k + 1) } else { stem.clone() };
+        rec.source = format!("{name}.csv");
+        let comment = format!("tipforge simulate: sensor {}, protocol {}, preload {preload} g, seed {seed}{}", spec.sensor.display(), spec.protocol.display(), cover.as_ref().map(|c| format!(", PDMS cover {} mm at {}:1 (dome carries {:.3} of the load)", c.thickness_mm, c.mix_ratio, c.dome_share)).unwrap_or_default());
+        st.add(dir.join(format!("{name}.csv")), sim::to_csv(&rec, &comment).into_bytes());
+        let mut tj = serde_json::json!({"schema": "tipforge.truth/1", "seed": seed, "preload_g": preload, "steps": truth.steps, "sensor": format!("{:?}", s), "protocol": format!("{:?}", p), "cover": cover});
+        if let Some(o) = tj.as_object_mut() {
+            o.insert("recording".into(), serde_json::json!(format!("{name}.csv")));
+        }
+        let mut text = serde_json::to_string_pretty(&tj).expect("truth json");
+        text.push('\n');
+        st.add(dir.join("truth").join(format!("{name}.json")), text.into_bytes());
+        let mut csv = String::from("time_s,clean_v,first_order_v\n");
+        for i in 0..rec.len() {
+            csv += &format!("{:.4},{:.6},{:.6}\n", rec.time_s[i], truth.clean_v[i], truth.first_order_v[i]);
+        }
+        st.add(dir.join("truth").join(format!("{name}.csv")), csv.into_bytes());
+    }
+    st.commit()
+}
