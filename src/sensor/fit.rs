@@ -6,7 +6,7 @@
 //! says why it stopped, and [`StepFit`] is the report the tables, plots and diagnosis read.
 
 use super::preprocess::{median, Series, Step};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use serde::Serialize;
 
 /// One trial's samples around one step.
@@ -24,6 +24,8 @@ pub struct Trial {
     /// Samples before this index are the pre-step level; those between it and `post` straddle the
     /// onset (a filtered sample there mixes both) and are left out.
     pub pre_end: usize,
+    /// The post-onset sample spacing when it is uniform (to 1e-9 relative), for a faster decay.
+    pub uniform_dt: Option<f64>,
     /// End of the hold.
     pub t_end: f64,
 }
@@ -75,7 +77,17 @@ pub fn trial_window(series: &Series, step: &Step, recording: &str) -> Option<Tri
     if pre_end < 2 || t.len() < post + 8 {
         return None;
     }
-    Some(Trial { recording: recording.to_string(), t_on: t[post], t, v, t_log: step.t_log, post, pre_end, t_end: step.t_end })
+    let uniform_dt = uniform(&t[post..]);
+    Some(Trial { recording: recording.to_string(), t_on: t[post], t, v, t_log: step.t_log, post, pre_end, uniform_dt, t_end: step.t_end })
+}
+
+/// The spacing of a time vector when it is uniform.
+pub fn uniform(t: &[f64]) -> Option<f64> {
+    if t.len() < 2 {
+        return None;
+    }
+    let dt = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
+    t.windows(2).all(|w| ((w[1] - w[0]) - dt).abs() <= 1e-9 * dt.abs()).then_some(dt)
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -126,50 +138,180 @@ impl StepFit {
     }
 }
 
-/// Linear solve for given τ: returns (θ = [V0_i…, b_i…, k], RSS).
-fn solve_linear(d: &StepData, tau: f64) -> Option<(Vec<f64>, f64)> {
-    let w = d.trials.len();
-    let p = 2 * w + 1;
-    let mut ata = DMatrix::<f64>::zeros(p, p);
-    let mut aty = DVector::<f64>::zeros(p);
-    let mut yy = 0.0;
-    let mut row = vec![0.0; p];
-    for (i, tr) in d.trials.iter().enumerate() {
-        for j in (0..tr.pre_end).chain(tr.post..tr.t.len()) {
-            row.iter_mut().for_each(|x| *x = 0.0);
-            row[i] = 1.0;
-            if j >= tr.post {
-                row[w + i] = (-(tr.t[j] - tr.t_on) / tau).exp();
-                row[2 * w] = 1.0;
-            }
-            let y = tr.v[j];
-            yy += y * y;
-            let nz: Vec<usize> = (0..p).filter(|&c| row[c] != 0.0).collect();
-            for &a in &nz {
-                aty[a] += row[a] * y;
-                for &b in &nz {
-                    ata[(a, b)] += row[a] * row[b];
-                }
-            }
+/// exp(−(t_j − t_on)/τ) for the post-onset samples of a trial, by recurrence where the sample
+/// spacing repeats (one exp per distinct spacing instead of one per sample).
+fn decay(tr: &Trial, tau: f64, out: &mut Vec<f64>) {
+    out.clear();
+    out.reserve(tr.t.len() - tr.post);
+    if let Some(dt) = tr.uniform_dt {
+        let r = (-dt / tau).exp();
+        let mut e = (-(tr.t[tr.post] - tr.t_on) / tau).exp();
+        for _ in tr.post..tr.t.len() {
+            out.push(e);
+            e *= r;
         }
+        return;
     }
-    let chol = ata.clone().cholesky()?;
-    let theta = chol.solve(&aty);
-    let rss = (yy - theta.dot(&aty)).max(0.0);
-    Some((theta.iter().copied().collect(), rss))
+    let mut e = (-(tr.t[tr.post] - tr.t_on) / tau).exp();
+    let mut last_dt = f64::NAN;
+    let mut f = 0.0;
+    out.push(e);
+    for j in tr.post + 1..tr.t.len() {
+        let dt = tr.t[j] - tr.t[j - 1];
+        if last_dt.is_nan() || (dt - last_dt).abs() > 1e-9 * dt.abs() {
+            f = (-dt / tau).exp();
+            last_dt = dt;
+        }
+        e *= f;
+        out.push(e);
+    }
 }
 
-fn rss_direct(d: &StepData, theta: &[f64], tau: f64) -> f64 {
+/// Linear solve for given τ: returns (θ = [V0_i…, b_i…, k], RSS). The normal equations are
+/// assembled from per-trial sums (the design matrix has a fixed sparsity).
+fn solve_linear(d: &StepData, tau: f64) -> Option<(Vec<f64>, f64)> {
+    let (theta, es, _) = solve_theta(d, tau)?;
     let w = d.trials.len();
-    let mut s = 0.0;
+    // the residual sum from the residuals themselves: yᵀy − θᵀAᵀy cancels badly when τ ≫ the
+    // window and the amplitude columns become nearly collinear
+    let mut rss = 0.0;
     for (i, tr) in d.trials.iter().enumerate() {
-        for j in (0..tr.pre_end).chain(tr.post..tr.t.len()) {
-            let m = if j >= tr.post { theta[i] + theta[2 * w] + theta[w + i] * (-(tr.t[j] - tr.t_on) / tau).exp() } else { theta[i] };
-            s += (tr.v[j] - m).powi(2);
+        for j in 0..tr.pre_end {
+            rss += (tr.v[j] - theta[i]).powi(2);
+        }
+        for (q, j) in (tr.post..tr.t.len()).enumerate() {
+            rss += (tr.v[j] - theta[i] - theta[2 * w] - theta[w + i] * es[i][q]).powi(2);
         }
     }
-    s
+    Some((theta, rss))
 }
+
+/// The linear parameters θ for a given τ, with the decays and the Cholesky factor of AᵀA.
+fn solve_theta(d: &StepData, tau: f64) -> Option<(Vec<f64>, Vec<Vec<f64>>, Arrow)> {
+    let w = d.trials.len();
+    let mut ar = Arrow { b: Vec::with_capacity(w), c: Vec::with_capacity(w), d: 0.0 };
+    let mut rhs = Vec::with_capacity(w);
+    let mut rk = 0.0;
+    let mut es: Vec<Vec<f64>> = vec![Vec::new(); w];
+    for (i, tr) in d.trials.iter().enumerate() {
+        let sy_all: f64 = tr.v[..tr.pre_end].iter().sum();
+        decay(tr, tau, &mut es[i]);
+        let e = &es[i];
+        let (mut se, mut see, mut sey, mut sy_post) = (0.0, 0.0, 0.0, 0.0);
+        for (&y, &ej) in tr.v[tr.post..].iter().zip(e.iter()) {
+            se += ej;
+            see += ej * ej;
+            sey += ej * y;
+            sy_post += y;
+        }
+        let n_post = (tr.t.len() - tr.post) as f64;
+        ar.b.push([tr.pre_end as f64 + n_post, se, see]);
+        ar.c.push([n_post, se]);
+        ar.d += n_post;
+        rhs.push([sy_all + sy_post, sey]);
+        rk += sy_post;
+    }
+    let (x, k) = ar.solve(&rhs, rk)?;
+    let mut theta = vec![0.0; 2 * w + 1];
+    for (i, xi) in x.iter().enumerate() {
+        theta[i] = xi[0];
+        theta[w + i] = xi[1];
+    }
+    theta[2 * w] = k;
+    Some((theta, es, ar))
+}
+
+/// The normal matrix of the step model: per trial a 2×2 block for (V0_i, b_i), coupled only to
+/// the shared k. Solved by eliminating the blocks (O(trials), no dense factorisation).
+struct Arrow {
+    /// [b11, b12, b22] of each trial's block.
+    b: Vec<[f64; 3]>,
+    /// Coupling of (V0_i, b_i) to k.
+    c: Vec<[f64; 2]>,
+    d: f64,
+}
+
+impl Arrow {
+    fn inv(b: &[f64; 3], r: [f64; 2]) -> Option<[f64; 2]> {
+        let det = b[0] * b[2] - b[1] * b[1];
+        if det.abs() <= 1e-300 || !det.is_finite() {
+            return None;
+        }
+        Some([(b[2] * r[0] - b[1] * r[1]) / det, (b[0] * r[1] - b[1] * r[0]) / det])
+    }
+    fn solve(&self, rhs: &[[f64; 2]], rk: f64) -> Option<(Vec<[f64; 2]>, f64)> {
+        let (mut num, mut den) = (rk, self.d);
+        let mut bir = Vec::with_capacity(rhs.len());
+        let mut bic = Vec::with_capacity(rhs.len());
+        for i in 0..rhs.len() {
+            let (a, c) = (Self::inv(&self.b[i], rhs[i])?, Self::inv(&self.b[i], self.c[i])?);
+            num -= self.c[i][0] * a[0] + self.c[i][1] * a[1];
+            den -= self.c[i][0] * c[0] + self.c[i][1] * c[1];
+            bir.push(a);
+            bic.push(c);
+        }
+        if den.abs() <= 1e-300 * self.d.abs().max(1.0) {
+            return None;
+        }
+        let k = num / den;
+        Some(((0..rhs.len()).map(|i| [bir[i][0] - bic[i][0] * k, bir[i][1] - bic[i][1] * k]).collect(), k))
+    }
+    /// zᵀ M⁻¹ z.
+    fn quad(&self, z: &[[f64; 2]], zk: f64) -> Option<f64> {
+        let (x, k) = self.solve(z, zk)?;
+        Some(z.iter().zip(&x).map(|(a, b)| a[0] * b[0] + a[1] * b[1]).sum::<f64>() + zk * k)
+    }
+}
+
+/// RSS and its first and (Gauss-Newton) second derivative in s = ln τ. By the variable-projection
+/// envelope theorem f′ = −2 rᵀg with g = ∂(Aθ)/∂s, and f″ ≈ 2‖P⊥g‖² = 2(gᵀg − (Aᵀg)ᵀ(AᵀA)⁻¹Aᵀg).
+fn vp_derivs(d: &StepData, tau: f64) -> Option<(f64, f64, f64)> {
+    let (theta, es, arrow) = solve_theta(d, tau)?;
+    let w = d.trials.len();
+    let mut atg = vec![[0.0f64; 2]; w];
+    let mut atg_k = 0.0;
+    let (mut rg, mut gg, mut rss) = (0.0, 0.0, 0.0);
+    for (i, tr) in d.trials.iter().enumerate() {
+        for j in 0..tr.pre_end {
+            rss += (tr.v[j] - theta[i]).powi(2);
+        }
+        let (mut sg, mut sge) = (0.0, 0.0);
+        for (q, j) in (tr.post..tr.t.len()).enumerate() {
+            let e = es[i][q];
+            let g = theta[w + i] * e * (tr.t[j] - tr.t_on) / tau;
+            let r = tr.v[j] - theta[i] - theta[2 * w] - theta[w + i] * e;
+            rss += r * r;
+            rg += r * g;
+            gg += g * g;
+            sg += g;
+            sge += g * e;
+        }
+        atg[i] = [sg, sge];
+        atg_k += sg;
+    }
+    let proj = arrow.quad(&atg, atg_k)?;
+    Some((rss, -2.0 * rg, 2.0 * (gg - proj).max(0.0)))
+}
+
+/// A starting τ from the data: the median over trials of the time to 63 % of the step.
+fn tau_guess(d: &StepData) -> Option<f64> {
+    let mut g = Vec::new();
+    for tr in &d.trials {
+        let n = tr.t.len();
+        let v0 = tr.v[..tr.pre_end].iter().sum::<f64>() / tr.pre_end as f64;
+        let tail = 10.min(n - tr.post);
+        let v1 = tr.v[n - tail..].iter().sum::<f64>() / tail as f64;
+        let target = v0 + 0.632 * (v1 - v0);
+        if let Some(j) = (tr.post..n).find(|&j| (tr.v[j] - target) * (v1 - v0).signum() >= 0.0) {
+            g.push((tr.t[j] - tr.t_on).max(0.5 * (tr.t[tr.post + 1] - tr.t[tr.post])));
+        }
+    }
+    if g.is_empty() {
+        return None;
+    }
+    Some(median(&mut g))
+}
+
 
 /// Variable projection over τ.
 pub fn varpro(d: &StepData) -> Option<StepFit> {
@@ -181,13 +323,50 @@ pub fn varpro(d: &StepData) -> Option<StepFit> {
     let span = d.trials.iter().map(|t| t.t[t.t.len() - 1] - t.t_on).fold(0.0, f64::max);
     let dt = d.trials.iter().map(|t| (t.t[t.t.len() - 1] - t.t[0]) / (t.t.len() - 1) as f64).fold(f64::INFINITY, f64::min);
     let (lo, hi) = ((0.5 * dt).max(1e-3).ln(), (5.0 * span).max(1.0).ln());
+    // fast path: safeguarded Newton on ln τ from the 63 % time, with exact gradient and the
+    // Gauss-Newton curvature; falls back to the scan below when it does not converge
+    if let Some(t0) = tau_guess(d) {
+        let mut sl = t0.ln().clamp(lo, hi);
+        let mut evals = 0;
+        let mut ok = false;
+        if let Some((mut f0, mut g0, mut h0)) = vp_derivs(d, sl.exp()) {
+            evals += 1;
+            for _ in 0..30 {
+                if h0 <= 0.0 {
+                    break;
+                }
+                let mut step = -(g0 / h0).clamp(-1.0, 1.0);
+                let mut accepted = false;
+                for _ in 0..8 {
+                    let cand = (sl + step).clamp(lo, hi);
+                    if let Some((f1, g1, h1)) = vp_derivs(d, cand.exp()) {
+                        evals += 1;
+                        if f1 <= f0 {
+                            sl = cand;
+                            (f0, g0, h0) = (f1, g1, h1);
+                            accepted = true;
+                            break;
+                        }
+                    }
+                    step *= 0.5;
+                }
+                if !accepted || step.abs() < 1e-6 {
+                    ok = accepted || step.abs() < 1e-6;
+                    break;
+                }
+            }
+            let _ = f0;
+        }
+        if ok && sl > lo && sl < hi {
+            return finish(d, sl.exp(), Termination::Converged, evals);
+        }
+    }
     let mut evals = 0;
     let mut f = |lt: f64| -> f64 {
         evals += 1;
-        // the normal equations lose precision when τ ≫ span; rss_direct is the exact residual
-        solve_linear(d, lt.exp()).map(|(th, _)| rss_direct(d, &th, lt.exp())).unwrap_or(f64::INFINITY)
+        solve_linear(d, lt.exp()).map(|(_, rss)| rss).unwrap_or(f64::INFINITY)
     };
-    let m = 64;
+    let m = 24;
     let grid: Vec<f64> = (0..m).map(|i| lo + (hi - lo) * i as f64 / (m - 1) as f64).collect();
     let vals: Vec<f64> = grid.iter().map(|&g| f(g)).collect();
     let best = (0..m).min_by(|&a, &b| vals[a].partial_cmp(&vals[b]).unwrap_or(std::cmp::Ordering::Equal))?;
@@ -201,7 +380,7 @@ pub fn varpro(d: &StepData) -> Option<StepFit> {
     let (mut c, mut e) = (b - g * (b - a), a + g * (b - a));
     let (mut fc, mut fe) = (f(c), f(e));
     for _ in 0..40 {
-        if (b - a).abs() < 1e-7 {
+        if (b - a).abs() < 1e-3 {
             break;
         }
         if fc < fe {
@@ -220,7 +399,7 @@ pub fn varpro(d: &StepData) -> Option<StepFit> {
     }
     // Newton on log τ with central differences
     let mut lt = 0.5 * (a + b);
-    for _ in 0..4 {
+    for _ in 0..6 {
         let h = 1e-4;
         let (f0, fp, fm) = (f(lt), f(lt + h), f(lt - h));
         let d1 = (fp - fm) / (2.0 * h);
@@ -232,34 +411,45 @@ pub fn varpro(d: &StepData) -> Option<StepFit> {
         if f(lt - step) < f0 {
             lt -= step;
         }
-        if step.abs() < 1e-9 {
+        if step.abs() < 1e-7 {
             break;
         }
     }
-    let tau = lt.exp();
-    let (theta, _) = solve_linear(d, tau)?;
-    let rss = rss_direct(d, &theta, tau);
+    finish(d, lt.exp(), termination, evals)
+}
+
+/// The report at the chosen τ: linear parameters, standard errors, per-trial onsets.
+fn finish(d: &StepData, tau: f64, termination: Termination, evals: usize) -> Option<StepFit> {
+    let w = d.trials.len();
+    let n: usize = d.trials.iter().map(|t| t.pre_end + t.t.len() - t.post).sum();
+    let (theta, es, _) = solve_theta(d, tau)?;
     let k = theta[2 * w];
-    // standard errors from the full Jacobian [V0_i, b_i, k, τ]
+    let mut rss = 0.0;
+    // standard errors from the full Jacobian [V0_i, b_i, k, τ]; a row has at most four
+    // non-zeros (V0_i, b_i, k, τ), so JᵀJ is assembled from 4×4 blocks
     let p = 2 * w + 2;
     let mut jtj = DMatrix::<f64>::zeros(p, p);
     for (i, tr) in d.trials.iter().enumerate() {
-        for j in (0..tr.pre_end).chain(tr.post..tr.t.len()) {
-            let mut row = vec![0.0; p];
-            row[i] = 1.0;
-            if j >= tr.post {
-                let s = tr.t[j] - tr.t_on;
-                let ex = (-s / tau).exp();
-                row[w + i] = ex;
-                row[2 * w] = 1.0;
-                row[2 * w + 1] = theta[w + i] * ex * s / (tau * tau);
-            }
-            for a in 0..p {
-                if row[a] != 0.0 {
-                    for bb in 0..p {
-                        jtj[(a, bb)] += row[a] * row[bb];
-                    }
+        jtj[(i, i)] += tr.pre_end as f64;
+        for j in 0..tr.pre_end {
+            rss += (tr.v[j] - theta[i]).powi(2);
+        }
+        let e = &es[i];
+        let cols = [i, w + i, 2 * w, 2 * w + 1];
+        let mut acc = [[0.0f64; 4]; 4];
+        for (q, j) in (tr.post..tr.t.len()).enumerate() {
+            rss += (tr.v[j] - theta[i] - theta[2 * w] - theta[w + i] * e[q]).powi(2);
+            let sdt = tr.t[j] - tr.t_on;
+            let row = [1.0, e[q], 1.0, theta[w + i] * e[q] * sdt / (tau * tau)];
+            for a in 0..4 {
+                for bb in 0..4 {
+                    acc[a][bb] += row[a] * row[bb];
                 }
+            }
+        }
+        for a in 0..4 {
+            for bb in 0..4 {
+                jtj[(cols[a], cols[bb])] += acc[a][bb];
             }
         }
     }
@@ -313,7 +503,8 @@ pub struct PaperFit {
     pub grid: usize,
 }
 
-pub fn paper(d: &StepData, weight: f64, grid: usize) -> Option<PaperFit> {
+/// Per-trial k (Eq. 2) and τ (Eq. 3, c chosen per trial), with each trial's V_initial and start.
+fn paper_per_trial(d: &StepData, weight: f64) -> Option<(Vec<(f64, f64, f64)>, Vec<(f64, f64)>)> {
     let mut per = Vec::new();
     let mut vinit = Vec::new();
     for tr in &d.trials {
@@ -333,13 +524,68 @@ pub fn paper(d: &StepData, weight: f64, grid: usize) -> Option<PaperFit> {
         per.push((k, best.1 * 0.637 * t_total, best.1));
         vinit.push((vi, tr.t[s]));
     }
+    Some((per, vinit))
+}
+
+fn rect(per: &[(f64, f64, f64)]) -> (f64, f64, f64, f64) {
     let (kmin, kmax) = per.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(p.0), a.1.max(p.0)));
     let (tmin, tmax) = per.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+    (kmin, kmax, tmin, tmax)
+}
+
+fn at(lo: f64, hi: f64, i: usize, n: usize) -> f64 {
+    if n > 1 {
+        lo + (hi - lo) * i as f64 / (n - 1) as f64
+    } else {
+        lo
+    }
+}
+
+/// The paper's method: per-trial values, then the exhaustive k–τ search of their rectangle.
+/// Eq. 4 for every k at one τ follows from three sums, so the search costs one pass over the
+/// samples per τ (the result is the same as evaluating Eq. 4 at every grid point; see
+/// [`paper_as_described`], which the tests compare against).
+pub fn paper(d: &StepData, weight: f64, grid: usize) -> Option<PaperFit> {
+    let (per, vinit) = paper_per_trial(d, weight)?;
+    let (kmin, kmax, tmin, tmax) = rect(&per);
+    let starts: Vec<usize> = d.trials.iter().map(|tr| tr.t.iter().position(|&x| x >= tr.t_log).unwrap_or(0)).collect();
+    let j = d.trials.iter().zip(&starts).map(|(tr, s)| tr.t.len() - s).min().unwrap_or(0);
+    let nn = (j * d.trials.len()) as f64;
+    let mut best = (f64::INFINITY, per[0].0, per[0].1);
+    for b in 0..grid {
+        let tau = at(tmin, tmax, b, grid);
+        let (mut sdd, mut sdu, mut suu) = (0.0, 0.0, 0.0);
+        for (i, tr) in d.trials.iter().enumerate() {
+            for q in 0..j {
+                let idx = starts[i] + q;
+                let dv = tr.v[idx] - vinit[i].0;
+                let u = weight * (1.0 - (-(tr.t[idx] - vinit[i].1).max(0.0) / tau).exp());
+                sdd += dv * dv;
+                sdu += dv * u;
+                suu += u * u;
+            }
+        }
+        for a in 0..grid {
+            let k = at(kmin, kmax, a, grid);
+            let e = ((sdd - 2.0 * k * sdu + k * k * suu).max(0.0) / nn).sqrt();
+            if e < best.0 {
+                best = (e, k, tau);
+            }
+        }
+    }
+    Some(PaperFit { k: best.1, tau_s: best.2, eq4: best.0, weight, per_trial: per, grid })
+}
+
+/// The paper's search exactly as described: Eq. 4 evaluated at every (k, τ) of the grid. The
+/// benchmark's reference for the paper's cost.
+pub fn paper_as_described(d: &StepData, weight: f64, grid: usize) -> Option<PaperFit> {
+    let (per, vinit) = paper_per_trial(d, weight)?;
+    let (kmin, kmax, tmin, tmax) = rect(&per);
     let mut best = (f64::INFINITY, per[0].0, per[0].1);
     for a in 0..grid {
-        let k = if grid > 1 { kmin + (kmax - kmin) * a as f64 / (grid - 1) as f64 } else { kmin };
+        let k = at(kmin, kmax, a, grid);
         for b in 0..grid {
-            let tau = if grid > 1 { tmin + (tmax - tmin) * b as f64 / (grid - 1) as f64 } else { tmin };
+            let tau = at(tmin, tmax, b, grid);
             let e = eq4(d, |i, t| vinit[i].0 + k * weight * (1.0 - (-(t - vinit[i].1).max(0.0) / tau).exp()));
             if e < best.0 {
                 best = (e, k, tau);
@@ -370,7 +616,8 @@ mod tests {
                     })
                     .collect();
                 let post = t.iter().position(|&x| x >= t0 + 0.02).unwrap();
-                Trial { recording: format!("r{i}"), t_on: t[post], t, v, t_log: 5.0, post, pre_end: post - 3, t_end: 25.0 }
+                let uniform_dt = uniform(&t[post..]);
+                Trial { recording: format!("r{i}"), t_on: t[post], t, v, t_log: 5.0, post, pre_end: post - 3, uniform_dt, t_end: 25.0 }
             })
             .collect();
         StepData { step: Step { phase: Phase::Loading, index: 0, t_log: 5.0, t_end: 25.0, before: 0.0, after: 200.0 }, trials }
@@ -388,6 +635,14 @@ mod tests {
     }
 
     #[test]
+    fn fast_paper_search_finds_the_same_optimum_as_the_described_one() {
+        let d = synth(0.6, 0.8, &[5.13, 4.9, 5.31], 0.003);
+        let (a, b) = (paper(&d, 0.2, 40).unwrap(), paper_as_described(&d, 0.2, 40).unwrap());
+        assert_eq!((a.k, a.tau_s), (b.k, b.tau_s));
+        assert!((a.eq4 - b.eq4).abs() < 1e-12);
+    }
+
+    #[test]
     fn lsq_eq4_error_is_not_above_the_papers() {
         let d = synth(0.6, 0.8, &[5.13, 4.9, 5.31], 0.003);
         let f = varpro(&d).unwrap();
@@ -397,3 +652,4 @@ mod tests {
         assert!((p.k * 0.2 / 0.6 - 1.0).abs() < 0.2);
     }
 }
+
