@@ -138,3 +138,76 @@ fn rig_rules_name_the_offending_key() {
     }
     assert!(!d.join("out").exists());
 }
+
+fn tipforge(args: &[&str]) -> (i32, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_tipforge")).args(args).output().unwrap();
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(!text.contains("panicked"), "{text}");
+    (o.status.code().unwrap_or(-1), text)
+}
+
+#[test]
+fn fit_reports_every_bad_file_with_line_and_exit_2() {
+    let d = dir("fitbad");
+    let a = d.join("a.csv");
+    let b = d.join("b.csv");
+    std::fs::write(&a, "time_s,voltage_v,load_g\n0,0.1,0\n0.01,x,0\n").unwrap();
+    std::fs::write(&b, "time_s,voltage_v\n0,0.1\n").unwrap();
+    let out = d.join("fit");
+    let (code, text) = tipforge(&["fit", a.to_str().unwrap(), b.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("a.csv:3: voltage_v = \"x\": not a number"), "{text}");
+    assert!(text.contains("b.csv:1:") && text.contains("protocol column"), "{text}");
+    assert!(!out.exists());
+    let (code, text) = tipforge(&["fit", d.join("missing.csv").to_str().unwrap()]);
+    assert_eq!(code, 2, "{text}");
+    let (code, _) = tipforge(&["fit", a.to_str().unwrap(), "--method", "magic"]);
+    assert_eq!(code, 2);
+}
+
+#[test]
+fn simulate_then_fit_end_to_end() {
+    let d = dir("simfit");
+    let rec = d.join("rec.csv");
+    let (code, text) = tipforge(&["simulate", "--trials", "2", "--seed", "5", "-o", rec.to_str().unwrap()]);
+    assert_eq!(code, 0, "{text}");
+    for f in ["rec-1.csv", "rec-2.csv", "truth/rec-1.json", "truth/rec-2.csv"] {
+        assert!(d.join(f).exists(), "{f}");
+    }
+    // same seed, same bytes
+    let again = d.join("again.csv");
+    tipforge(&["simulate", "--trials", "2", "--seed", "5", "-o", again.to_str().unwrap()]);
+    let strip = |p: &Path| std::fs::read_to_string(p).unwrap().lines().skip(1).collect::<Vec<_>>().join("\n");
+    assert_eq!(strip(&d.join("rec-1.csv")), strip(&d.join("again-1.csv")));
+    let out = d.join("fit");
+    let (code, text) = tipforge(&["fit", d.join("rec-1.csv").to_str().unwrap(), d.join("rec-2.csv").to_str().unwrap(), "--method", "both", "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{text}");
+    for f in ["report.json", "table-lsq.csv", "table-lsq.md", "table-paper.md", "plots/steps-loading.png", "plots/steps-unloading.png", "plots/fashion.png"] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["steps"].as_array().unwrap().len(), 10);
+    assert!(text.contains("fashion: conductance"), "{text}");
+    // bad simulator parameters: every problem, exit 2
+    let bad = d.join("bad.toml");
+    std::fs::write(&bad, "kind = \"sensor\"\n[noise]\nsigma_v = -1\n[conductance]\nexponnent = 1\n").unwrap();
+    let (code, text) = tipforge(&["simulate", "--sensor", bad.to_str().unwrap(), "-o", d.join("x.csv").to_str().unwrap()]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("conductance.exponnent") && text.contains("did you mean `exponent`"), "{text}");
+}
+
+#[test]
+fn shared_real_recording_fits() {
+    let path = Path::new("../shared/data/real/cbsilicone_v10_Ro.csv");
+    if !path.exists() {
+        eprintln!("skipped: {} is absent", path.display());
+        return;
+    }
+    let d = dir("real");
+    let out = d.join("fit");
+    let (code, text) = tipforge(&["fit", path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{text}");
+    assert!(text.contains("protocol glitch") || text.contains("note:"), "{text}");
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    assert!(report["steps"].as_array().unwrap().len() >= 8, "{text}");
+}

@@ -183,11 +183,15 @@ pub fn analyze(recs: &[Recording], opts: &Options) -> (Report, Prepared) {
                     taus.push((s.after, f.tau_s));
                 }
             }
-            let f = fashion::fit(ro, &levels, &taus);
-            if f.is_none() {
-                notes.push(format!("fashion curves need at least three load levels; found {}", levels.len()));
+            let mut distinct: Vec<f64> = levels.iter().map(|l| l.0).collect();
+            distinct.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            distinct.dedup();
+            if distinct.len() < 3 {
+                notes.push(format!("fashion curves need at least three load levels; the protocol has {}", distinct.len()));
+                None
+            } else {
+                fashion::fit(ro, &levels, &taus)
             }
-            f
         }
         _ => {
             notes.push("fashion curves need the divider metadata (vcc_v, r_m_ohm, divider) or a resistance recording".into());

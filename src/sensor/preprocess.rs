@@ -43,6 +43,9 @@ pub struct SpikeWindow {
     pub peak: f64,
 }
 
+/// Handling spikes are looked for this close to a logged step (s).
+pub const HANDLING_WINDOW_S: f64 = 3.0;
+
 #[derive(Debug, Clone)]
 pub struct Options {
     /// Apply the paper's block mean of `block` samples (the paper: 10 at 100 Hz → 10 Hz).
@@ -139,9 +142,24 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
 }
 
 /// Spike removal, then the block mean filter (a block holding a spike sample is kept only from its
-/// clean samples; a block with none is dropped).
+/// clean samples; a block with none is dropped). Weights are handled when they are placed or
+/// removed, so spikes are only looked for within `HANDLING_WINDOW_S` of a logged step.
 pub fn prepare(rec: &Recording, opts: &Options) -> (Series, Vec<SpikeWindow>) {
-    let (windows, mask) = spikes(&rec.time_s, &rec.response, opts);
+    let (steps, _) = segment(rec, opts);
+    let (all, mut mask) = spikes(&rec.time_s, &rec.response, opts);
+    let near = |t: f64| steps.iter().any(|s| (t - s.t_log).abs() <= HANDLING_WINDOW_S);
+    let mut windows = Vec::new();
+    for w in all {
+        if near(w.start_s) || near(w.end_s) {
+            windows.push(w);
+        } else {
+            for (i, &t) in rec.time_s.iter().enumerate() {
+                if t >= w.start_s && t <= w.end_s {
+                    mask[i] = true;
+                }
+            }
+        }
+    }
     let block = if opts.mean_filter { opts.block.max(1) } else { 1 };
     let (mut t, mut v, mut g, mut ok) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for start in (0..rec.len()).step_by(block) {
