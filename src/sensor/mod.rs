@@ -2,6 +2,7 @@
 
 pub mod analyze;
 pub mod cli;
+pub mod diagnose;
 pub mod fashion;
 pub mod fit;
 pub mod preprocess;
