@@ -43,6 +43,17 @@ enum Cmd {
         #[arg(long)]
         no_filter: bool,
     },
+    /// Where simulation and recordings differ: locate the mismatch, name the physics left out,
+    /// model it, refit, and show the held-out improvement.
+    Diagnose {
+        #[arg(required = true)]
+        recordings: Vec<PathBuf>,
+        #[arg(long, default_value = "out/diagnosis")]
+        out: PathBuf,
+        /// Turn off the paper's 10-sample mean filter.
+        #[arg(long)]
+        no_filter: bool,
+    },
     /// Simulate the rig and sensor: write a recording and its noise-free truth.
     Simulate {
         #[arg(long, default_value = "params/sensor.toml")]
@@ -110,6 +121,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 MethodArg::Both => Method::Both,
             };
             let s = tipforge::sensor::cli::fit(&recordings, m, !no_filter, &out)?;
+            for l in &s.lines {
+                println!("{l}");
+            }
+            println!("wrote {} file(s) to {}", s.written.len(), out.display());
+            Ok(())
+        }
+        Cmd::Diagnose { recordings, out, no_filter } => {
+            let s = tipforge::sensor::cli::diagnose(&recordings, !no_filter, &out)?;
             for l in &s.lines {
                 println!("{l}");
             }

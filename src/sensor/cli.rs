@@ -183,3 +183,14 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
     }
     st.commit()
 }
+
+/// `tipforge diagnose`: returns the summary lines and the files written.
+pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path) -> Result<FitSummary> {
+    let recs = read_all(paths, paths.len() > 3)?;
+    let mut opts = Options::default();
+    opts.pre.mean_filter = filter;
+    let d = super::diagnose::diagnose(&recs, &opts).ok_or_else(|| input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
+    let lines = super::diagnose_out::summary(&d);
+    let written = super::diagnose_out::stage(&d, out).commit()?;
+    Ok(FitSummary { lines, written })
+}

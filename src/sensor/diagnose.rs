@@ -510,6 +510,42 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
         cur_score = s;
         cur_x = x;
     }
+    // saturation the free levels absorbed: the clipped plateau is its own evidence (samples piled
+    // at one value with no noise on them)
+    if let (Some(level), false) = (clip, cur.effects.contains(&Effect::Saturation)) {
+        let mut windows = Vec::new();
+        for tr in &trials {
+            let mut start: Option<f64> = None;
+            for j in 0..tr.t.len() {
+                let at = tr.v[j] >= level - 0.25 * tr.sigma.max(1e-12);
+                match (at, start) {
+                    (true, None) => start = Some(tr.t[j]),
+                    (false, Some(s0)) => {
+                        if tr.t[j] - s0 > 1.0 {
+                            windows.push(Window { recording: tr.name.clone(), start_s: s0, end_s: tr.t[j], statistic: format!("clipped at {level:.4}") });
+                        }
+                        start = None;
+                    }
+                    _ => {}
+                }
+            }
+            if let Some(s0) = start {
+                windows.push(Window { recording: tr.name.clone(), start_s: s0, end_s: tr.t[tr.t.len() - 1], statistic: format!("clipped at {level:.4}") });
+            }
+        }
+        if !windows.is_empty() {
+            findings.push(Finding {
+                effect: Effect::Saturation.name(),
+                confidence: "medium",
+                explanation: format!("{}; the per-load levels absorb the clip, so held-out prediction cannot improve: the evidence is the plateau itself", Effect::Saturation.explanation()),
+                windows,
+                term: Term { name: "saturation_term".into(), params: serde_json::json!({"level": level}) },
+                heldout_rmse_before: cur_score.heldout_rmse,
+                heldout_rmse_after: cur_score.heldout_rmse,
+                delta_bic: 0.0,
+            });
+        }
+    }
     // handling spikes: reported and excluded, never modelled
     let spikes: Vec<Window> = report
         .recordings

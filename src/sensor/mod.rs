@@ -3,6 +3,7 @@
 pub mod analyze;
 pub mod cli;
 pub mod diagnose;
+pub mod diagnose_out;
 pub mod fashion;
 pub mod fit;
 pub mod preprocess;

@@ -200,9 +200,6 @@ pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover:
                 }
             }
         }
-        if e.saturation_v > 0.0 {
-            v = v.min(e.saturation_v);
-        }
         time.push(tk);
         clean.push(v);
         fo.push(first);
@@ -211,13 +208,19 @@ pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover:
         logged.push(lg);
     }
     let full = (1u64 << c.adc_bits.min(32)) as f64 - 1.0;
+    // the rail (or the ADC's reference) clips the signal with its noise, so clipped samples pile up
+    // at one value
+    let sat = if e.saturation_v > 0.0 { e.saturation_v } else { f64::INFINITY };
     let recorded: Vec<f64> = clean
         .iter()
         .map(|&v| {
-            let noisy = v + p.noise_v * rng.normal();
+            let noisy = (v + p.noise_v * rng.normal()).min(sat);
             (noisy / c.vref_v * full).round().clamp(0.0, full) * c.vref_v / full
         })
         .collect();
+    for v in clean.iter_mut() {
+        *v = v.min(sat);
+    }
     let meta = Meta {
         sample_rate_hz: Some(c.sample_rate_hz),
         vcc_v: Some(c.vcc_v),

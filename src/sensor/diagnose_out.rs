@@ -1,0 +1,86 @@
+//! Writing a diagnosis: diagnosis.json, predictions/<stem>.csv, plots, report.html, and a summary
+//! in plain words.
+
+use super::diagnose::Diagnosis;
+use crate::export::Staged;
+use crate::plot::{self, Chart, Series, PALETTE};
+use std::path::Path;
+
+/// The terminal summary: one sentence per finding, then the overall result.
+pub fn summary(d: &Diagnosis) -> Vec<String> {
+    let mut out = Vec::new();
+    out.push(format!(
+        "baseline (first-order steps): held-out RMSE {:.4} {}, fit RMSE {:.4}",
+        d.baseline.heldout_rmse, d.unit, d.baseline.rmse
+    ));
+    if d.findings.is_empty() {
+        out.push("no physics left out was found: every catalogue term failed to improve held-out prediction".into());
+    }
+    for f in &d.findings {
+        let w = f.windows.first().map(|w| format!(" (e.g. {} {:.1}–{:.1} s)", w.recording, w.start_s, w.end_s)).unwrap_or_default();
+        out.push(format!(
+            "{} left out [{} confidence]: {}{}; term {}; held-out RMSE {:.4} → {:.4} {}, ΔBIC {:.0}",
+            f.effect, f.confidence, f.explanation, w, f.term.params, f.heldout_rmse_before, f.heldout_rmse_after, d.unit, f.delta_bic
+        ));
+    }
+    if d.unexplained.flag {
+        out.push(format!("unexplained structure remains in {} window(s), e.g. {}", d.unexplained.evidence.len(), d.unexplained.evidence.first().cloned().unwrap_or_default()));
+    }
+    out.push(format!("improved model: {:?}; held-out RMSE {:.4} → {:.4} {}", d.final_.effects, d.baseline.heldout_rmse, d.final_.heldout_rmse, d.unit));
+    out
+}
+
+pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
+    let mut st = Staged::default();
+    let mut json = serde_json::to_string_pretty(d).expect("diagnosis serialises");
+    json.push('\n');
+    st.add(dir.join("diagnosis.json"), json.into_bytes());
+    let mut imgs = Vec::new();
+    for p in &d.predictions {
+        let mut csv = String::with_capacity(p.time_s.len() * 40);
+        csv.push_str("time_s,measured,baseline,improved\n");
+        for i in 0..p.time_s.len() {
+            csv.push_str(&format!("{:.4},{:.6},{:.6},{:.6}\n", p.time_s[i], p.measured[i], p.baseline[i], p.improved[i]));
+        }
+        st.add(dir.join("predictions").join(format!("{}.csv", p.stem)), csv.into_bytes());
+        let t = p.time_s.clone();
+        let r0: Vec<f64> = p.measured.iter().zip(&p.baseline).map(|(a, b)| a - b).collect();
+        let r1: Vec<f64> = p.measured.iter().zip(&p.improved).map(|(a, b)| a - b).collect();
+        let charts = vec![
+            Chart {
+                title: format!("{}: RECORDING AND MODELS", p.stem),
+                x_label: "TIME S".into(),
+                y_label: d.unit.clone(),
+                series: vec![Series::points("measured", t.clone(), p.measured.clone(), [150, 150, 150]), Series::line("baseline", t.clone(), p.baseline.clone(), PALETTE[1]), Series::line("improved", t.clone(), p.improved.clone(), PALETTE[0])],
+                shade: p.windows.clone(),
+            },
+            Chart {
+                title: "RESIDUALS BEFORE (RED) AND AFTER (BLUE)".into(),
+                x_label: "TIME S".into(),
+                y_label: d.unit.clone(),
+                series: vec![Series::line("baseline", t.clone(), r0, PALETTE[1]), Series::line("improved", t, r1, PALETTE[0])],
+                shade: p.windows.clone(),
+            },
+        ];
+        let name = format!("plots/{}.png", p.stem);
+        st.add(dir.join(&name), plot::render(&charts, 1, 1100, 360));
+        imgs.push(name);
+    }
+    let esc = |s: &str| s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+    let mut html = String::from("<!doctype html><html><head><meta charset=\"utf-8\"><title>tipforge diagnosis</title><style>body{font-family:sans-serif;max-width:1150px;margin:2em auto}td,th{border:1px solid #ccc;padding:4px 8px}table{border-collapse:collapse}</style></head><body>\n<h1>Diagnosis</h1>\n");
+    html += &format!("<p>Recordings: {}</p>\n<ul>\n", esc(&d.recordings.join(", ")));
+    for l in summary(d) {
+        html += &format!("<li>{}</li>\n", esc(&l));
+    }
+    html += "</ul>\n<h2>Decisions</h2>\n<table><tr><th>round</th><th>candidate</th><th>held-out RMSE</th><th>gain</th><th>ΔBIC</th><th>accepted</th></tr>\n";
+    for dc in &d.decisions {
+        html += &format!("<tr><td>{}</td><td>{}</td><td>{:.5}</td><td>{:+.3}</td><td>{:.1}</td><td>{}</td></tr>\n", dc.step, dc.candidate, dc.heldout_rmse, dc.gain, dc.delta_bic, dc.accepted);
+    }
+    html += "</table>\n<h2>Recordings, models and residuals</h2>\n<p>Shaded: windows where the model failed or a finding applies.</p>\n";
+    for i in &imgs {
+        html += &format!("<p><img src=\"{i}\" width=\"1100\"></p>\n");
+    }
+    html += "</body></html>\n";
+    st.add(dir.join("report.html"), html.into_bytes());
+    st
+}
