@@ -59,6 +59,8 @@ const CATALOGUE: [Effect; 5] = [Effect::Creep, Effect::Hysteresis, Effect::Secon
 /// One step of one trial.
 #[derive(Debug, Clone)]
 struct Seg {
+    /// Index of the step's (phase, index) across trials: τ corrections are shared per step.
+    key: usize,
     t0: f64,
     load: f64,
     prev: f64,
@@ -79,6 +81,8 @@ struct Trial {
 /// A model configuration: which terms, and their shape parameters.
 #[derive(Debug, Clone, PartialEq)]
 struct Config {
+    /// Linearised τ corrections per step (free time constants, first order in Δln τ).
+    tau_free: bool,
     effects: Vec<Effect>,
     tau2: f64,
     clip: Option<f64>,
@@ -103,11 +107,12 @@ impl Hat {
 struct Design {
     loads: Vec<f64>,
     n_trials: usize,
+    n_keys: usize,
 }
 
 impl Design {
     fn ncols(&self, cfg: &Config) -> usize {
-        self.n_trials + self.loads.len().saturating_sub(1) + cfg.effects.iter().filter(|e| **e != Effect::Saturation).count()
+        self.n_trials + self.loads.len().saturating_sub(1) + if cfg.tau_free { self.n_keys } else { 0 } + cfg.effects.iter().filter(|e| **e != Effect::Saturation).count()
     }
     /// The design row of trial `i` at time t.
     fn row(&self, i: usize, tr: &Trial, t: f64, cfg: &Config, hat: &Hat, out: &mut Vec<f64>) {
@@ -128,12 +133,31 @@ impl Design {
             }
         }
         let mut col = base + self.loads.len().saturating_sub(1);
+        if cfg.tau_free {
+            for &s in &active {
+                let sg = &tr.segs[s];
+                let x = (t - sg.t0) / sg.tau;
+                out[col + sg.key] += (hat.level_of(sg.load) - hat.level_of(sg.prev)) * x * (-x).exp();
+            }
+            col += self.n_keys;
+        }
         let cur = active.last().copied();
         let l0 = hat.level_of(self.loads[0]);
         for e in &cfg.effects {
             let v = match e {
                 Effect::Creep => match cur {
-                    Some(s) => (hat.level_of(tr.segs[s].load) - l0) * (1.0 + (t - tr.segs[s].t0) / 1.0).log10(),
+                    // log-time growth under the current load; what earlier loads built up relaxes
+                    // away with the new step's time constant
+                    Some(s) => {
+                        let mut carry = 0.0;
+                        for q in 0..=s {
+                            let sg = &tr.segs[q];
+                            let end = if q == s { t } else { tr.segs[q + 1].t0 };
+                            let since = end - sg.t0;
+                            carry = carry * (-since / sg.tau).exp() + (hat.level_of(sg.load) - l0) * (1.0 + since / 1.0).log10();
+                        }
+                        carry
+                    }
                     None => 0.0,
                 },
                 Effect::Hysteresis => {
@@ -367,7 +391,8 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording]) -> Vec<Tria
             let fit = report.steps.iter().find(|s| s.phase == st.phase && s.index == st.index).and_then(|s| s.lsq.as_ref());
             let Some(f) = fit else { continue };
             let t0 = f.trials.iter().find(|tp| tp.recording == rec.source).map(|tp| tp.t0).unwrap_or(st.t_log);
-            segs.push(Seg { t0, load: st.after, prev: st.before, tau: f.tau_s, phase: st.phase });
+            let key = report.steps.iter().position(|s| s.phase == st.phase && s.index == st.index).unwrap_or(0);
+            segs.push(Seg { key, t0, load: st.after, prev: st.before, tau: f.tau_s, phase: st.phase });
         }
         let keep: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j]).collect();
         out.push(Trial { name: rec.source.clone(), t: keep.iter().map(|&j| series.t[j]).collect(), v: keep.iter().map(|&j| series.v[j]).collect(), segs, sigma: series.sigma });
@@ -421,14 +446,19 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
     if loads.len() < 2 {
         return None;
     }
-    let d = Design { loads: loads.clone(), n_trials: trials.len() };
-    let base_cfg = Config { effects: vec![], tau2: 1.0, clip: None };
-    let hat0 = Hat::default();
-    let (base, xb) = score(&d, &trials, &base_cfg, &hat0)?;
-    // fitted levels per load for the two-stage terms
+    let n_keys = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.key + 1)).max().unwrap_or(0);
+    let d = Design { loads: loads.clone(), n_trials: trials.len(), n_keys };
+    // levels per load from a first fit, for the terms built on them (two-stage)
+    let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, clip: None };
+    let rows = all_rows(&trials);
+    let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
     let mut level = vec![0.0];
-    level.extend(xb[trials.len()..trials.len() + loads.len() - 1].iter().copied());
+    level.extend(x0[trials.len()..trials.len() + loads.len() - 1].iter().copied());
     let hat = Hat { loads: loads.clone(), level };
+    let hat0 = hat.clone();
+    // the baseline: first-order steps with their levels and time constants refitted jointly
+    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, clip: None };
+    let (base, xb) = score(&d, &trials, &base_cfg, &hat)?;
     let clip = clip_level(&trials);
     let med_tau = {
         let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
@@ -445,7 +475,7 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
                 continue;
             }
             let cands: Vec<Config> = match e {
-                Effect::SecondTimeConstant => [3.0, 6.0, 12.0, 24.0].iter().map(|m| {
+                Effect::SecondTimeConstant => [2.0, 3.0, 4.0, 5.5, 7.5, 10.0, 14.0, 20.0, 28.0].iter().map(|m| {
                     let mut c = cur.clone();
                     c.effects.push(e);
                     c.tau2 = m * med_tau;
@@ -487,7 +517,7 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
         let windows = locate(&d, &trials, &cur_x, &cur, &hat);
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
         let dbic = s.bic - cur_score.bic;
-        let coef_idx = trials.len() + loads.len() - 1 + c.effects.iter().filter(|x| **x != Effect::Saturation).position(|x| *x == e).unwrap_or(0);
+        let coef_idx = trials.len() + loads.len() - 1 + if c.tau_free { n_keys } else { 0 } + c.effects.iter().filter(|x| **x != Effect::Saturation).position(|x| *x == e).unwrap_or(0);
         let params = match e {
             Effect::Creep => serde_json::json!({"per_decade_fraction": x.get(coef_idx), "time_s": 1.0}),
             Effect::Hysteresis => serde_json::json!({"fraction": x.get(coef_idx)}),
