@@ -53,6 +53,13 @@ enum Cmd {
         /// Turn off the paper's 10-sample mean filter.
         #[arg(long)]
         no_filter: bool,
+        /// Use this simulator configuration's prediction as the baseline (check a simulator
+        /// against recordings).
+        #[arg(long)]
+        sensor: Option<PathBuf>,
+        /// With --sensor: the rig manifest whose plunger mass is the preload.
+        #[arg(long)]
+        rig: Option<PathBuf>,
     },
     /// Simulate the rig and sensor: write a recording and its noise-free truth.
     Simulate {
@@ -127,8 +134,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             println!("wrote {} file(s) to {}", s.written.len(), out.display());
             Ok(())
         }
-        Cmd::Diagnose { recordings, out, no_filter } => {
-            let s = tipforge::sensor::cli::diagnose(&recordings, !no_filter, &out)?;
+        Cmd::Diagnose { recordings, out, no_filter, sensor, rig } => {
+            let s = tipforge::sensor::cli::diagnose(&recordings, !no_filter, &out, sensor.as_deref(), rig.as_deref())?;
             for l in &s.lines {
                 println!("{l}");
             }

@@ -83,3 +83,22 @@ fn shared_real_recording_is_diagnosed_with_a_heldout_improvement() {
     assert!(d.final_.heldout_rmse < d.baseline.heldout_rmse);
     println!("real: {:?}, held-out {:.1} → {:.1} ohm, unexplained {}", d.final_.effects, d.baseline.heldout_rmse, d.final_.heldout_rmse, d.unexplained.flag);
 }
+
+#[test]
+fn simulator_baseline_finds_what_the_simulator_leaves_out_and_nothing_when_it_is_right() {
+    use tipforge::sensor::diagnose::{diagnose_with, SimBaseline};
+    let s = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
+    let sb = SimBaseline { sensor: &s, preload_g: 20.0 };
+    let d = diagnose_with(&case(8000, |_| {}), &Default::default(), Some(&sb)).unwrap();
+    assert!(d.findings.is_empty(), "{:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>());
+    let d = diagnose_with(&case(9000, |x| x.effects.hysteresis = 0.03), &Default::default(), Some(&sb)).unwrap();
+    assert_eq!(d.findings.first().map(|f| f.effect), Some("hysteresis"));
+    assert!(d.baseline.model.contains("simulator"));
+    // a simulator with the wrong time constants is caught as a mismatch
+    let mut wrong = s.clone();
+    wrong.tau_per_n_s *= 2.0;
+    let sw = SimBaseline { sensor: &wrong, preload_g: 20.0 };
+    let d = diagnose_with(&case(9100, |_| {}), &Default::default(), Some(&sw)).unwrap();
+    assert!(d.baseline.heldout_rmse > 3.0 * 0.001, "{}", d.baseline.heldout_rmse);
+    assert!(!d.findings.is_empty() || d.unexplained.flag);
+}

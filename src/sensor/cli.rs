@@ -185,11 +185,27 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
 }
 
 /// `tipforge diagnose`: returns the summary lines and the files written.
-pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path) -> Result<FitSummary> {
+pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Path>, rig: Option<&Path>) -> Result<FitSummary> {
     let recs = read_all(paths, paths.len() > 3)?;
     let mut opts = Options::default();
     opts.pre.mean_filter = filter;
-    let d = super::diagnose::diagnose(&recs, &opts).ok_or_else(|| input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
+    let sp = match sensor {
+        Some(p) => Some(load_sensor(p)?),
+        None => None,
+    };
+    let preload = match (rig, &sp) {
+        (Some(m), _) => preload_from_manifest(m)?,
+        (None, Some(s)) => s.preload_g,
+        _ => 0.0,
+    };
+    if sp.is_some() && recs[0].protocol_kind == super::recording::ProtocolKind::Input {
+        return Err(input(&recs[0].source, "protocol column", "input", "--sensor needs the load (load_g or force_n) to simulate the recording; this one logs a unitless input"));
+    }
+    if sp.is_some() && recs[0].unit != "V" {
+        return Err(input(&recs[0].source, "response", recs[0].unit, "--sensor compares voltages: give the divider metadata (vcc_v, r_m_ohm, divider) or a voltage column"));
+    }
+    let sb = sp.as_ref().map(|s| super::diagnose::SimBaseline { sensor: s, preload_g: preload });
+    let d = super::diagnose::diagnose_with(&recs, &opts, sb.as_ref()).ok_or_else(|| input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
     let lines = super::diagnose_out::summary(&d);
     let written = super::diagnose_out::stage(&d, out).commit()?;
     Ok(FitSummary { lines, written })

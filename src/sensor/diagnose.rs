@@ -66,6 +66,8 @@ struct Seg {
     prev: f64,
     tau: f64,
     phase: Phase,
+    /// With a simulator baseline: the simulated step (ΔV, τ).
+    sim: Option<(f64, f64)>,
 }
 
 /// One trial's data as the model sees it.
@@ -76,6 +78,16 @@ struct Trial {
     v: Vec<f64>,
     segs: Vec<Seg>,
     sigma: f64,
+    /// With a simulator baseline: its level before the first step.
+    prior0: Option<f64>,
+}
+
+impl Trial {
+    /// The simulator's prediction (0 without a simulator baseline).
+    fn prior(&self, t: f64) -> f64 {
+        let Some(p0) = self.prior0 else { return 0.0 };
+        p0 + self.segs.iter().filter(|s| t >= s.t0).filter_map(|s| s.sim.map(|(dv, tau)| dv * (1.0 - (-(t - s.t0) / tau).exp()))).sum::<f64>()
+    }
 }
 
 /// A model configuration: which terms, and their shape parameters.
@@ -108,11 +120,16 @@ struct Design {
     loads: Vec<f64>,
     n_trials: usize,
     n_keys: usize,
+    /// The simulator gives the first-order part: no level or τ columns.
+    prior: bool,
 }
 
 impl Design {
+    fn n_levels(&self) -> usize {
+        self.n_trials + if self.prior { 0 } else { self.loads.len().saturating_sub(1) }
+    }
     fn ncols(&self, cfg: &Config) -> usize {
-        self.n_trials + self.loads.len().saturating_sub(1) + if cfg.tau_free { self.n_keys } else { 0 } + cfg.effects.iter().filter(|e| **e != Effect::Saturation).count()
+        self.n_levels() + if cfg.tau_free && !self.prior { self.n_keys } else { 0 } + cfg.effects.iter().filter(|e| **e != Effect::Saturation).count()
     }
     /// The design row of trial `i` at time t.
     fn row(&self, i: usize, tr: &Trial, t: f64, cfg: &Config, hat: &Hat, out: &mut Vec<f64>) {
@@ -122,7 +139,7 @@ impl Design {
         let base = self.n_trials;
         // level columns: loads[0] is the reference level (absorbed by o_i)
         let active: Vec<usize> = (0..tr.segs.len()).filter(|&s| t >= tr.segs[s].t0).collect();
-        for &s in &active {
+        for &s in active.iter().filter(|_| !self.prior) {
             let sg = &tr.segs[s];
             let u = 1.0 - (-(t - sg.t0) / sg.tau).exp();
             if let Some(c) = self.loads.iter().position(|&x| x == sg.load).filter(|&c| c > 0) {
@@ -132,8 +149,9 @@ impl Design {
                 out[base + c - 1] -= u;
             }
         }
-        let mut col = base + self.loads.len().saturating_sub(1);
-        if cfg.tau_free {
+        let mut col = self.n_levels();
+        let _ = base;
+        if cfg.tau_free && !self.prior {
             for &s in &active {
                 let sg = &tr.segs[s];
                 let x = (t - sg.t0) / sg.tau;
@@ -211,7 +229,7 @@ fn solve(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, ha
             if r[a] == 0.0 {
                 continue;
             }
-            aty[a] += r[a] * tr.v[j];
+            aty[a] += r[a] * (tr.v[j] - tr.prior(tr.t[j]));
             for b in 0..p {
                 ata[(a, b)] += r[a] * r[b];
             }
@@ -227,7 +245,7 @@ fn solve(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, ha
 
 fn predict(d: &Design, i: usize, tr: &Trial, t: f64, x: &[f64], cfg: &Config, hat: &Hat, buf: &mut Vec<f64>) -> f64 {
     d.row(i, tr, t, cfg, hat, buf);
-    let v: f64 = buf.iter().zip(x).map(|(a, b)| a * b).sum();
+    let v: f64 = buf.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() + tr.prior(t);
     match cfg.clip {
         Some(c) => v.min(c),
         None => v,
@@ -392,10 +410,10 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording]) -> Vec<Tria
             let Some(f) = fit else { continue };
             let t0 = f.trials.iter().find(|tp| tp.recording == rec.source).map(|tp| tp.t0).unwrap_or(st.t_log);
             let key = report.steps.iter().position(|s| s.phase == st.phase && s.index == st.index).unwrap_or(0);
-            segs.push(Seg { key, t0, load: st.after, prev: st.before, tau: f.tau_s, phase: st.phase });
+            segs.push(Seg { key, t0, load: st.after, prev: st.before, tau: f.tau_s, phase: st.phase, sim: None });
         }
         let keep: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j]).collect();
-        out.push(Trial { name: rec.source.clone(), t: keep.iter().map(|&j| series.t[j]).collect(), v: keep.iter().map(|&j| series.v[j]).collect(), segs, sigma: series.sigma });
+        out.push(Trial { name: rec.source.clone(), t: keep.iter().map(|&j| series.t[j]).collect(), v: keep.iter().map(|&j| series.v[j]).collect(), segs, sigma: series.sigma, prior0: None });
     }
     out
 }
@@ -437,9 +455,34 @@ fn locate(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &Hat) -> V
     out
 }
 
+/// The simulator as the baseline: its sensor model and the preload (g) on top of the logged loads.
+pub struct SimBaseline<'a> {
+    pub sensor: &'a crate::params::sensor::SensorParams,
+    pub preload_g: f64,
+}
+
 pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
+    diagnose_with(recs, opts, None)
+}
+
+/// With `sim`, the simulator's first-order prediction for each trial's logged protocol (at the
+/// onsets found in the data) is the baseline; only per-trial offsets and catalogue terms are fitted.
+pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Diagnosis> {
     let (report, prep) = analyze::analyze(recs, opts);
-    let trials = trials_from(&report, &prep, recs);
+    let mut trials = trials_from(&report, &prep, recs);
+    if let Some(sb) = sim {
+        let kind = recs.first()?.protocol_kind;
+        let force = |load: f64| kind.grams(load).map(|g| (g + sb.preload_g) / 1000.0 * super::sim::G_N_PER_KG);
+        for tr in &mut trials {
+            let f0 = force(tr.segs.first().map(|s| s.prev).unwrap_or(0.0))?;
+            tr.prior0 = Some(sb.sensor.v_eq(f0));
+            for sg in &mut tr.segs {
+                let (fa, fb) = (force(sg.load)?, force(sg.prev)?);
+                sg.sim = Some((sb.sensor.v_eq(fa) - sb.sensor.v_eq(fb), sb.sensor.tau(fa)));
+                sg.tau = sb.sensor.tau(fa);
+            }
+        }
+    }
     let mut loads: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().flat_map(|s| [s.load, s.prev])).collect();
     loads.sort_by(|a, b| a.partial_cmp(b).unwrap());
     loads.dedup();
@@ -447,14 +490,23 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
         return None;
     }
     let n_keys = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.key + 1)).max().unwrap_or(0);
-    let d = Design { loads: loads.clone(), n_trials: trials.len(), n_keys };
-    // levels per load from a first fit, for the terms built on them (two-stage)
-    let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, clip: None };
-    let rows = all_rows(&trials);
-    let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
-    let mut level = vec![0.0];
-    level.extend(x0[trials.len()..trials.len() + loads.len() - 1].iter().copied());
-    let hat = Hat { loads: loads.clone(), level };
+    let d = Design { loads: loads.clone(), n_trials: trials.len(), n_keys, prior: sim.is_some() };
+    // levels per load for the terms built on them (two-stage): from a first fit, or the simulator's
+    let hat = match sim {
+        Some(sb) => {
+            let kind = recs[0].protocol_kind;
+            let level = loads.iter().map(|&l| kind.grams(l).map(|g| sb.sensor.v_eq((g + sb.preload_g) / 1000.0 * super::sim::G_N_PER_KG)).unwrap_or(0.0)).collect();
+            Hat { loads: loads.clone(), level }
+        }
+        None => {
+            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, clip: None };
+            let rows = all_rows(&trials);
+            let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
+            let mut level = vec![0.0];
+            level.extend(x0[trials.len()..trials.len() + loads.len() - 1].iter().copied());
+            Hat { loads: loads.clone(), level }
+        }
+    };
     let hat0 = hat.clone();
     // the baseline: first-order steps with their levels and time constants refitted jointly
     let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, clip: None };
@@ -517,7 +569,7 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
         let windows = locate(&d, &trials, &cur_x, &cur, &hat);
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
         let dbic = s.bic - cur_score.bic;
-        let coef_idx = trials.len() + loads.len() - 1 + if c.tau_free { n_keys } else { 0 } + c.effects.iter().filter(|x| **x != Effect::Saturation).position(|x| *x == e).unwrap_or(0);
+        let coef_idx = d.n_levels() + if c.tau_free && !d.prior { n_keys } else { 0 } + c.effects.iter().filter(|x| **x != Effect::Saturation).position(|x| *x == e).unwrap_or(0);
         let params = match e {
             Effect::Creep => serde_json::json!({"per_decade_fraction": x.get(coef_idx), "time_s": 1.0}),
             Effect::Hysteresis => serde_json::json!({"fraction": x.get(coef_idx)}),
@@ -612,7 +664,7 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
         schema: SCHEMA,
         recordings: recs.iter().map(|r| r.source.clone()).collect(),
         unit: report.unit.clone(),
-        baseline: Baseline { model: "first-order step per load change, levels shared across trials (the paper's model, fitted exactly)".into(), rmse: base.rmse, heldout_rmse: base.heldout_rmse, bic: base.bic },
+        baseline: Baseline { model: if sim.is_some() { "the simulator's first-order prediction for the logged protocol (per-trial offsets fitted)".into() } else { "first-order step per load change, levels shared across trials (the paper's model, fitted exactly)".into() }, rmse: base.rmse, heldout_rmse: base.heldout_rmse, bic: base.bic },
         final_: Final { effects: cur.effects.iter().map(|e| e.name()).collect(), rmse: cur_score.rmse, heldout_rmse: cur_score.heldout_rmse },
         findings,
         unexplained,
