@@ -4,7 +4,7 @@
 pub mod shape;
 
 use crate::error::{Error, Result};
-use crate::mesh::{self, add, dot, frame, scale, segments, sub, Solid, P3};
+use crate::mesh::{self, add, frame, scale, segments, sub, Solid, P3};
 use crate::params::fingertip::{FingertipParams, Head, Sensor};
 use crate::part::Part;
 use serde_json::json;
@@ -479,7 +479,6 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
     // into the print frame: (x, y, z) -> (y, z, x) is a rotation
     let solid = solid.place([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0; 3]);
     let mesh = solid.to_mesh();
-    let _ = dot;
     Ok(Part {
         name: name.to_string(),
         mesh,

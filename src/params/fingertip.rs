@@ -352,8 +352,6 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
         }),
         _ => None,
     };
-    let kind_ok = true;
-    let _ = kind_ok;
     if out_sensors.len() != sensors.len() || sensors.is_empty() || sensors.len() > 2 {
         return None;
     }

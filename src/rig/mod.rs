@@ -59,22 +59,16 @@ fn base_solid(p: &RigParams, l: &Layout) -> Solid {
     body.difference(&cut)
 }
 
-/// The plunger in its assembled pose, with or without the plate.
-fn plunger_solid(p: &RigParams, l: &Layout, with_plate: bool) -> Solid {
+/// The plunger in its assembled pose.
+fn plunger_solid(p: &RigParams, l: &Layout) -> Solid {
     let tol = p.print.chordal_tolerance_mm;
     let q = &p.plunger;
     let (rf, rt, rs, rp) = (q.face_diameter_mm / 2.0, q.frustum_top_diameter_mm / 2.0, q.stem_diameter_mm / 2.0, q.plate_diameter_mm / 2.0);
     let n = segments(rt.max(rs), tol);
     let frustum = Solid::cylinder([0.0, 0.0, l.dome_top], UP, q.frustum_height_mm, rf, rt, n);
-    let stem = Solid::cylinder([0.0, 0.0, l.frustum_top - 0.01], UP, q.stem_length_mm + 0.01 + if with_plate { 0.01 } else { 0.0 }, rs, rs, segments(rs, tol));
-    let mut parts = vec![frustum, stem];
-    if with_plate {
-        parts.push(Solid::cylinder([0.0, 0.0, l.plate_bottom], UP, q.plate_thickness_mm, rp, rp, segments(rp, tol)));
-    }
-    let body = Solid::union_all(&parts).expect("parts");
-    if !with_plate {
-        return body;
-    }
+    let stem = Solid::cylinder([0.0, 0.0, l.frustum_top - 0.01], UP, q.stem_length_mm + 0.02, rs, rs, segments(rs, tol));
+    let plate = Solid::cylinder([0.0, 0.0, l.plate_bottom], UP, q.plate_thickness_mm, rp, rp, segments(rp, tol));
+    let body = Solid::union_all(&[frustum, stem, plate]).expect("parts");
     // centring scale: concentric rings and a cross engraved in the top face
     let z = l.plate_top - q.scale_depth_mm;
     let h = q.scale_depth_mm + 1.0;
@@ -150,8 +144,7 @@ pub fn assembly_checks(p: &RigParams, base: &Solid, plunger: &Solid, l: &Layout)
     if stop_inter > 1e-6 || (rest_gap - p.plunger.stop_gap_mm.min(p.plunger.clearance_mm)).abs() > 0.02 {
         bad("the overtravel stop must engage after stop_gap_mm", format!("rest gap {rest_gap:.4} mm, overlap at the stop {stop_inter:.6} mm³"));
     }
-    let (_, lo_hi) = (0, plunger.0.bounding_box());
-    let face_z = lo_hi.min.z;
+    let face_z = plunger.0.bounding_box().min.z;
     if (face_z - l.dome_top).abs() > 0.05 {
         bad("the frustum face must rest on the dome's top plane", format!("gap {:.4} mm", face_z - l.dome_top));
     }
@@ -185,7 +178,7 @@ pub fn build(p: &RigParams) -> Result<Built> {
     let l = layout(p);
     let base = base_solid(p, &l);
     base.ok(&format!("{}-base", p.name))?;
-    let plunger = plunger_solid(p, &l, true);
+    let plunger = plunger_solid(p, &l);
     plunger.ok(&format!("{}-plunger", p.name))?;
     let violations = assembly_checks(p, &base, &plunger, &l);
     let plunger_print = plunger_to_print(&plunger, &l);
@@ -293,7 +286,7 @@ mod tests {
         let p = params();
         let l = layout(&p);
         let base = base_solid(&p, &l);
-        let plunger = plunger_solid(&p, &l, true);
+        let plunger = plunger_solid(&p, &l);
         let shifted = plunger.translate([0.2, 0.0, 0.0]);
         let v = assembly_checks(&p, &base, &shifted, &l);
         assert!(v.iter().any(|x| x.rule.contains("axis")), "{v:?}");
@@ -307,7 +300,7 @@ mod tests {
     fn small_face_has_the_sensing_area() {
         let p = params();
         let l = layout(&p);
-        let plunger = plunger_solid(&p, &l, true);
+        let plunger = plunger_solid(&p, &l);
         let area = plunger.slice_area(l.dome_top + 1e-6);
         let nominal = std::f64::consts::PI * 16.0;
         assert!((area / nominal - 1.0).abs() < 1e-4, "{area}");
