@@ -7,8 +7,9 @@
 //! per-step fit and t0 the onsets found in each trial. Catalogue terms add to it (all linear given
 //! their shape parameter): creep, hysteresis, a second time constant, baseline drift, and
 //! saturation (a clip); handling spikes are reported and excluded, never modelled. Selection is
-//! forward: a term enters when it lowers the held-out RMSE (leave one trial out; with one
-//! recording, leave one step out) by at least `MIN_GAIN` and BIC by at least `MIN_DBIC`.
+//! forward: a term enters when it lowers the held-out error (leave one trial out; with one
+//! recording, leave one step out) with a paired z of at least `MIN_Z` over trial × step units, and
+//! BIC by at least `MIN_DBIC`.
 
 use super::analyze::{self, Options, Prepared, Report};
 use super::preprocess::Phase;
@@ -16,7 +17,8 @@ use super::recording::Recording;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-pub const MIN_GAIN: f64 = 0.01;
+/// A term must improve held-out prediction with a paired z of at least this over units.
+pub const MIN_Z: f64 = 3.0;
 pub const MIN_DBIC: f64 = -10.0;
 pub const SCHEMA: &str = "tipforge.diagnosis/1";
 
@@ -258,6 +260,9 @@ pub struct Score {
     pub heldout_rmse: f64,
     pub bic: f64,
     pub params: usize,
+    /// Held-out squared error per unit (trial × step segment, or step segment), for paired tests.
+    #[serde(skip)]
+    pub units: Vec<f64>,
 }
 
 fn all_rows(trials: &[Trial]) -> Vec<(usize, usize)> {
@@ -278,6 +283,8 @@ fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score
     let p = d.ncols(cfg) + usize::from(cfg.clip.is_some());
     let bic = n as f64 * (rss / n as f64).max(1e-300).ln() + p as f64 * (n as f64).ln();
     let (mut hss, mut hn) = (0.0, 0usize);
+    let mut units: std::collections::BTreeMap<(usize, usize), f64> = Default::default();
+    let seg_of = |tr: &Trial, t: f64| tr.segs.iter().filter(|s| s.t0 <= t).count();
     if trials.len() >= 2 {
         for k in 0..trials.len() {
             let train: Vec<(usize, usize)> = rows.iter().copied().filter(|r| r.0 != k).collect();
@@ -293,6 +300,7 @@ fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score
                     let e = tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf);
                     hss += e * e;
                     hn += 1;
+                    *units.entry((k, seg_of(tr, tr.t[j]))).or_default() += e * e;
                 }
             }
         }
@@ -302,17 +310,39 @@ fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score
         for s in 0..tr.segs.len() {
             let (a, b) = (tr.segs[s].t0, tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY));
             let train: Vec<(usize, usize)> = rows.iter().copied().filter(|r| !(tr.t[r.1] >= a && tr.t[r.1] < b)).collect();
-            let Some(xk) = solve(d, trials, &train, cfg, hat) else { continue };
+            let Some(mut xk) = solve(d, trials, &train, cfg, hat) else { continue };
+            // the held-out step's own time-constant correction has (almost) no training data:
+            // predict it with the step's fitted τ
+            if cfg.tau_free && !d.prior {
+                xk[d.n_levels() + tr.segs[s].key] = 0.0;
+            }
             for j in 0..tr.t.len() {
                 if tr.t[j] >= a && tr.t[j] < b {
                     let e = tr.v[j] - predict(d, 0, tr, tr.t[j], &xk, cfg, hat, &mut buf);
                     hss += e * e;
                     hn += 1;
+                    *units.entry((0, s)).or_default() += e * e;
                 }
             }
         }
     }
-    Some((Score { rmse: (rss / n.max(1) as f64).sqrt(), heldout_rmse: (hss / hn.max(1) as f64).sqrt(), bic, params: p }, x))
+    Some((Score { rmse: (rss / n.max(1) as f64).sqrt(), heldout_rmse: (hss / hn.max(1) as f64).sqrt(), bic, params: p, units: units.into_values().collect() }, x))
+}
+
+/// Paired z statistic of the held-out improvement over units (positive: the candidate predicts
+/// better). Scale-free, so it does not depend on the noise per sample or the sampling rate.
+fn paired_z(before: &[f64], after: &[f64]) -> f64 {
+    if before.len() != after.len() || before.len() < 3 {
+        return 0.0;
+    }
+    let d: Vec<f64> = before.iter().zip(after).map(|(a, b)| a - b).collect();
+    let m = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / m;
+    let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
+    if sd <= 0.0 {
+        return 0.0;
+    }
+    mean / (sd / m.sqrt())
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -369,6 +399,8 @@ pub struct Decision {
     pub candidate: &'static str,
     pub heldout_rmse: f64,
     pub gain: f64,
+    /// Paired z of the held-out improvement over units.
+    pub z: f64,
     pub delta_bic: f64,
     pub accepted: bool,
 }
@@ -557,8 +589,9 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             let Some((c, s, x)) = pick else { continue };
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
             let dbic = s.bic - cur_score.bic;
-            decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, delta_bic: dbic, accepted: false });
-            if gain >= MIN_GAIN && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.heldout_rmse < b.2.heldout_rmse) {
+            let z = paired_z(&cur_score.units, &s.units);
+            decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
+            if gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.heldout_rmse < b.2.heldout_rmse) {
                 best = Some((e, c, s, x));
             }
         }
