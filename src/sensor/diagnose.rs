@@ -591,7 +591,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             let dbic = s.bic - cur_score.bic;
             let z = paired_z(&cur_score.units, &s.units);
             decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
-            if gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.heldout_rmse < b.2.heldout_rmse) {
+            if gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
                 best = Some((e, c, s, x));
             }
         }
@@ -624,6 +624,32 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         cur = c;
         cur_score = s;
         cur_x = x;
+    }
+    // backward check: every kept term must still pass the rule given all the others (a term taken
+    // early can be made redundant by a later, better one — drift standing in for hysteresis)
+    loop {
+        let mut worst: Option<(usize, Config, Score, Vec<f64>, f64)> = None;
+        for (idx, e) in cur.effects.iter().enumerate() {
+            let mut c = cur.clone();
+            c.effects.remove(idx);
+            if *e == Effect::Saturation {
+                c.clip = None;
+            }
+            let Some((s_wo, x_wo)) = score(&d, &trials, &c, &hat) else { continue };
+            let z = paired_z(&s_wo.units, &cur_score.units);
+            let dbic = cur_score.bic - s_wo.bic;
+            let passes = z >= MIN_Z && dbic <= MIN_DBIC;
+            if !passes && worst.as_ref().is_none_or(|w| z < w.4) {
+                worst = Some((idx, c, s_wo, x_wo, z));
+            }
+        }
+        let Some((idx, c, s_wo, x_wo, z)) = worst else { break };
+        let gone = cur.effects[idx];
+        decisions.push(Decision { step: decisions.last().map(|d| d.step + 1).unwrap_or(0), candidate: gone.name(), heldout_rmse: s_wo.heldout_rmse, gain: -z, z: -z, delta_bic: s_wo.bic - cur_score.bic, accepted: false });
+        findings.retain(|f| f.effect != gone.name());
+        cur = c;
+        cur_score = s_wo;
+        cur_x = x_wo;
     }
     // saturation the free levels absorbed: the clipped plateau is its own evidence (samples piled
     // at one value with no noise on them)
