@@ -177,11 +177,6 @@ impl Solid {
         let v: Vec<Vec3> = points.iter().map(|&p| v3(p)).collect();
         Solid(Manifold::hull(&v))
     }
-    /// Extrudes polygons drawn in the (u, v) plane along w by `height`, then places the result.
-    pub fn extrude(polys: &[Vec<[f64; 2]>], height: f64) -> Solid {
-        let p: Vec<Vec<manifold_rust::linalg::Vec2>> = polys.iter().map(|pl| pl.iter().map(|q| manifold_rust::linalg::Vec2::new(q[0], q[1])).collect()).collect();
-        Solid(Manifold::extrude(&p, height, 0, 0.0, manifold_rust::linalg::Vec2::new(1.0, 1.0)))
-    }
 }
 
 /// Radius factor that gives a regular n-gon the area of its circle.

@@ -18,9 +18,6 @@ impl Staged {
     pub fn add(&mut self, path: PathBuf, bytes: Vec<u8>) {
         self.files.push((path, bytes));
     }
-    pub fn paths(&self) -> impl Iterator<Item = &Path> {
-        self.files.iter().map(|(p, _)| p.as_path())
-    }
     /// Writes every file to `<name>.tmp-tipforge`, then renames them all into place. On any error
     /// the temporaries are removed and nothing in place has changed.
     pub fn commit(self) -> Result<Vec<PathBuf>> {

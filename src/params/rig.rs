@@ -4,7 +4,7 @@
 //!
 //! Frame: z up, the sensor's axis on z = 0 axis, base bottom at z = 0.
 
-use super::fingertip::{print_params, Print, RawPrint, PRINT_SCHEMA};
+use super::fingertip::{print_params, Print, RawPrint};
 use super::{Collector, Schema, SourceFile};
 use crate::error::Result;
 use serde::Deserialize;
@@ -72,7 +72,6 @@ pub static SCHEMA: Schema = Schema {
     fields: &["kind", "name"],
     tables: &[("sensor", false, &SENSOR_SCHEMA), ("base", false, &BASE_SCHEMA), ("plunger", false, &PLUNGER_SCHEMA), ("print", false, &RIG_PRINT_SCHEMA)],
 };
-const _: &Schema = &PRINT_SCHEMA;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct RigSensor {

@@ -6,7 +6,7 @@ use super::sim::{self, Cover};
 use crate::error::{Error, Problem, Problems, Result};
 use crate::export::Staged;
 use crate::params::sensor::{ProtocolParams, SensorParams};
-use crate::params::{read_source, SourceFile};
+use crate::params::read_source;
 use std::path::{Path, PathBuf};
 
 fn input(file: &str, path: &str, value: impl ToString, message: impl Into<String>) -> Error {
@@ -133,10 +133,6 @@ fn load_sensor(path: &Path) -> Result<SensorParams> {
 
 pub fn load_protocol(path: &Path) -> Result<ProtocolParams> {
     ProtocolParams::from_source(&read_source(path)?)
-}
-
-pub fn load_sensor_text(file: &str, text: String) -> Result<SensorParams> {
-    SensorParams::from_source(&SourceFile::parse(file, text)?)
 }
 
 /// Simulates `trials` recordings; returns the files written.
