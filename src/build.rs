@@ -39,6 +39,7 @@ pub struct Report {
 pub enum Job {
     Fingertip(FingertipParams),
     Rig(crate::params::rig::RigParams),
+    Mold(crate::params::mold::MoldParams),
 }
 
 /// What building one file gives: parts, assembly views, assembly violations, manifest sections.
@@ -48,6 +49,8 @@ pub struct Built {
     pub violations: Vec<crate::checks::Violation>,
     /// Top-level manifest sections keyed by section name ("rigs", ...), merged across files.
     pub sections: Vec<(&'static str, Map<String, serde_json::Value>)>,
+    /// Plain-words lines for the build summary (material estimates, cure advice).
+    pub notes: Vec<String>,
 }
 
 pub struct Loaded {
@@ -97,6 +100,7 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Vec<(String, &'static st
         let job = match kind {
             Kind::Fingertip => FingertipParams::from_source(&src, &stem).map(Job::Fingertip),
             Kind::Rig => crate::params::rig::RigParams::from_source(&src, &stem).map(Job::Rig),
+            Kind::Mold => crate::params::mold::MoldParams::from_source(&src, &stem, path.parent().unwrap_or(Path::new("."))).map(Job::Mold),
             _ => {
                 skipped.push((rel, "part kind not built by this version"));
                 continue;
@@ -117,10 +121,14 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Vec<(String, &'static st
 /// Builds the parts of one loaded file.
 pub fn build_job(job: &Job) -> Result<Built> {
     match job {
-        Job::Fingertip(p) => Ok(Built { parts: vec![crate::fingertip::build(p)?], assemblies: vec![], violations: vec![], sections: vec![] }),
+        Job::Fingertip(p) => Ok(Built { parts: vec![crate::fingertip::build(p)?], assemblies: vec![], violations: vec![], sections: vec![], notes: vec![] }),
         Job::Rig(p) => {
             let b = crate::rig::build(p)?;
-            Ok(Built { parts: b.parts, assemblies: b.assemblies, violations: b.violations, sections: vec![("rigs", b.manifest)] })
+            Ok(Built { parts: b.parts, assemblies: b.assemblies, violations: b.violations, sections: vec![("rigs", b.manifest)], notes: vec![] })
+        }
+        Job::Mold(p) => {
+            let b = crate::mold::build(p)?;
+            Ok(Built { parts: b.parts, assemblies: b.assemblies, violations: b.violations, sections: vec![("molds", b.manifest)], notes: b.notes })
         }
     }
 }
@@ -133,9 +141,11 @@ pub fn run(opts: &Options) -> Result<Report> {
     let mut summaries = Vec::new();
     let mut violations = Vec::new();
     let mut sections = Map::new();
+    let mut notes = Vec::new();
     for l in &loaded {
         let t0 = Instant::now();
-        let Built { parts, assemblies, violations: assembly_violations, sections: secs } = build_job(&l.job)?;
+        let Built { parts, assemblies, violations: assembly_violations, sections: secs, notes: job_notes } = build_job(&l.job)?;
+        notes.extend(job_notes);
         violations.extend(assembly_violations);
         for (k, m) in secs {
             let entry = sections.entry(k.to_string()).or_insert_with(|| serde_json::Value::Object(Map::new()));
@@ -175,5 +185,5 @@ pub fn run(opts: &Options) -> Result<Report> {
     }
     staged.add(opts.out_dir.join("manifest.json"), manifest::document(entries, sections));
     let written = staged.commit()?;
-    Ok(Report { summaries, written, skipped, notes: Vec::new() })
+    Ok(Report { summaries, written, skipped, notes })
 }

@@ -7,6 +7,7 @@ pub mod error;
 pub mod export;
 pub mod fingertip;
 pub mod mesh;
+pub mod mold;
 pub mod params;
 pub mod part;
 pub mod plot;

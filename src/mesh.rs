@@ -159,6 +159,25 @@ impl Solid {
         Solid(self.0.transform(&Mat3x4::from_cols(v3(ex), v3(ey), v3(ez), v3(origin))))
     }
 
+    /// Uniform scale by `k` about `center`.
+    pub fn scale_about(&self, k: f64, center: P3) -> Solid {
+        Solid(self.0.translate(v3(scale(center, -1.0))).scale(Vec3::new(k, k, k)).translate(v3(center)))
+    }
+    /// Axis-aligned bounds (lo, hi).
+    pub fn bbox(&self) -> (P3, P3) {
+        let b = self.0.bounding_box();
+        ([b.min.x, b.min.y, b.min.z], [b.max.x, b.max.y, b.max.z])
+    }
+    /// Whether a point is inside (ray parity along +z up to `above`).
+    pub fn contains(&self, p: P3, above: f64) -> bool {
+        self.0.ray_cast(v3(p), v3([p[0], p[1], above])).len() % 2 == 1
+    }
+    /// Hits of the segment a→b with the surface, nearest first, as distances from a (mm).
+    pub fn ray_hits(&self, a: P3, b: P3) -> Vec<f64> {
+        let len = norm(sub(b, a));
+        self.0.ray_cast(v3(a), v3(b)).iter().map(|h| h.distance * len).collect()
+    }
+
     /// Axis-aligned box.
     pub fn cuboid(lo: P3, hi: P3) -> Solid {
         let s = sub(hi, lo);

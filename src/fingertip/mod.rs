@@ -353,6 +353,14 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
     out
 }
 
+/// The spot-face cutter of a seat: exactly the flat diameter at the seat plane, flaring at 45°
+/// above it (the mold's core uses the same cutter, so the cover follows the flat seat).
+pub fn spot_face(st: &Seat, s: &Sensor, tol: f64) -> Solid {
+    let rf = s.flat_diameter_mm / 2.0;
+    let flare_h = st.flat_depth + 2.0;
+    Solid::cylinder(st.flat_center, st.normal, flare_h, rf, rf + flare_h, segments(rf + flare_h, tol))
+}
+
 /// Output frame: the mount face on the bed (z = 0), the finger pointing up.
 pub fn to_print(p: P3) -> P3 {
     [p[1], p[2], p[0]]
@@ -370,13 +378,11 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
     let far = p.body.thickness_mm + 4.0;
     for (i, s) in p.sensors.iter().enumerate() {
         let st = seat(&shape, s).map_err(|w| Error::geometry(name, format!("sensor[{i}] {w}")))?;
-        let rf = s.flat_diameter_mm / 2.0;
         let rs = s.seat_diameter_mm / 2.0;
         // spot face: exactly rf at the seat plane, flaring at 45° above it so no edge around the flat
         // is sharper than 90°; it only cuts within flat_depth of the rim (the body lies below the
         // tangent plane, flat_depth above the seat plane)
-        let flare_h = st.flat_depth + 2.0;
-        cutters.push(Solid::cylinder(st.flat_center, st.normal, flare_h, rf, rf + flare_h, segments(rf + flare_h, tol)));
+        cutters.push(spot_face(&st, s, tol));
         cutters.push(Solid::cylinder(st.floor_center, st.normal, s.seat_depth_mm + st.flat_depth + far, rs, rs, segments(rs, tol)));
         // tail channel: hulls of pieces whose floor follows the pad at the channel depth; a piece
         // grows while its floor stays within tol/2 of the straight chord (few pieces where the pad

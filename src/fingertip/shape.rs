@@ -147,6 +147,124 @@ impl Shape {
             .collect()
     }
 
+    /// Exact outward unit normal of the body's side surface at a surface point `p` (from the
+    /// profile arcs, not from a mesh). On the mount-face ring it is the side normal (no x part).
+    pub fn normal_at(&self, p: P3) -> P3 {
+        let zs = self.zscale(p[2]);
+        let (qy, qz) = (p[1] / self.lateral, p[2] / zs);
+        let rho = (qy * qy + qz * qz).sqrt();
+        if rho < 1e-12 {
+            return if p[0] > self.length / 2.0 { [1.0, 0.0, 0.0] } else { [-1.0, 0.0, 0.0] };
+        }
+        let x = p[0];
+        // meridian normal (n_x, n_rho) in pad units
+        let (nx, nr) = if x <= self.x1 {
+            (0.0, 1.0)
+        } else if x <= self.tp.0 {
+            (x - self.c1.0, rho - self.c1.1)
+        } else {
+            (x - self.c2.0, rho - self.c2.1)
+        };
+        let (c, s) = (qy / rho, qz / rho);
+        // the scaled surface's normal is S^-1 applied to the unscaled one (S diagonal)
+        mesh::unit([nx, nr * c / self.lateral, nr * s / zs])
+    }
+
+    /// Surface point at parameters (x, phi): phi = 0 lateral (+y), -pi/2 the pad bottom.
+    pub fn surface_point(&self, x: f64, phi: f64) -> P3 {
+        let r = self.r(x);
+        let (s, c) = phi.sin_cos();
+        [x, self.lateral * r * c, r * s * self.zscale(s)]
+    }
+
+    /// The body offset outward by `t` (the exact offset surface, regenerated): every vertex of the
+    /// body's tessellation lies on the exact surface and is moved by `t` along the exact normal
+    /// there. Mount-face vertices stay in the face plane, scaled with its moved rim. `tol` is the
+    /// chordal tolerance wanted on the offset; the body is tessellated finer by the ratio of the
+    /// smallest curvature radius to that radius plus `t`, since offsetting outward flattens chords
+    /// by that ratio at most.
+    pub fn offset_mesh(&self, t: f64, tol: f64, what: &str) -> Result<Mesh> {
+        let r_min = self.min_curvature_radius();
+        let base = self.body_mesh(tol * r_min / (r_min + t), what)?;
+        let r0 = self.r(0.0);
+        Ok(base.map(|p| {
+            if p[0].abs() < 1e-9 {
+                let zs = self.zscale(p[2]);
+                let (qy, qz) = (p[1] / self.lateral, p[2] / zs);
+                let rho = (qy * qy + qz * qz).sqrt();
+                if rho < 1e-12 {
+                    return [0.0, 0.0, 0.0];
+                }
+                let rim = [0.0, p[1] * r0 / rho, p[2] * r0 / rho];
+                let n = self.normal_at(rim);
+                let moved = mesh::add(rim, mesh::scale(n, t));
+                let f = rho / r0;
+                [0.0, moved[1] * f, moved[2] * f]
+            } else {
+                mesh::add(p, mesh::scale(self.normal_at(p), t))
+            }
+        }))
+    }
+
+    /// Smallest principal curvature radius of the side surface (sampled; used to pick a
+    /// tessellation tolerance for offsets).
+    pub fn min_curvature_radius(&self) -> f64 {
+        // cross-section half-ellipses: radii b^2/a and a^2/b; meridian: tip and pad arcs
+        let a = self.lateral * self.pad_depth;
+        let mut m = self.r_tip.min(self.r_long);
+        for b in [self.pad_depth, self.dorsal_height] {
+            m = m.min(b * b / a).min(a * a / b);
+        }
+        m
+    }
+
+    /// Distance from `p` to the exact offset surface at `t` (the point's nearest offset-surface
+    /// point, found by Gauss-Newton over the surface parameters from a coarse grid). Used by tests
+    /// and checks to measure meshes against the exact surface.
+    pub fn offset_distance(&self, p: P3, t: f64) -> f64 {
+        let f = |x: f64, phi: f64| {
+            let x = x.clamp(1e-9, self.length - 1e-9);
+            let q = self.surface_point(x, phi);
+            mesh::add(q, mesh::scale(self.normal_at(q), t))
+        };
+        let d2 = |x: f64, phi: f64| {
+            let o = f(x, phi);
+            mesh::dot(mesh::sub(o, p), mesh::sub(o, p))
+        };
+        let (mut bx, mut bp, mut best) = (0.0, 0.0, f64::INFINITY);
+        let nx = 80;
+        for i in 0..=nx {
+            let x = self.length * i as f64 / nx as f64;
+            for j in 0..72 {
+                let phi = 2.0 * std::f64::consts::PI * j as f64 / 72.0;
+                let v = d2(x, phi);
+                if v < best {
+                    (bx, bp, best) = (x, phi, v);
+                }
+            }
+        }
+        // pattern search refinement (robust where the parametrisation degenerates at the tip)
+        let (mut sx, mut sp) = (self.length / nx as f64, 2.0 * std::f64::consts::PI / 72.0);
+        for _ in 0..200 {
+            let mut improved = false;
+            for (dx, dp) in [(sx, 0.0), (-sx, 0.0), (0.0, sp), (0.0, -sp)] {
+                let v = d2((bx + dx).clamp(0.0, self.length), bp + dp);
+                if v < best {
+                    (bx, bp, best) = ((bx + dx).clamp(0.0, self.length), bp + dp, v);
+                    improved = true;
+                }
+            }
+            if !improved {
+                sx /= 2.0;
+                sp /= 2.0;
+                if sx < 1e-9 {
+                    break;
+                }
+            }
+        }
+        best.sqrt()
+    }
+
     /// The exact revolved body scaled to one half (`dorsal` or pad), as a truck solid.
     fn truck_half(&self, dorsal: bool) -> TSolid {
         let l = self.length;

@@ -6,6 +6,7 @@
 //! (type errors per table) → `TryFrom`-style validation that collects every semantic problem.
 
 pub mod fingertip;
+pub mod mold;
 pub mod rig;
 pub mod sensor;
 mod raw;

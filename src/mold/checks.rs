@@ -1,0 +1,304 @@
+//! Checks of an assembled mold, run before anything is written. Each rule names what it measured;
+//! the measurements also go to the manifest.
+
+use super::conforming::Assembled;
+use super::Layout;
+use crate::checks::Violation;
+use crate::fingertip::{self, Shape};
+use crate::mesh::{self, add, dot, frame, norm, scale, sub, Solid, P3};
+use crate::params::mold::MoldParams;
+use serde_json::{json, Value};
+
+/// Largest overlap (mm³) two assembled pieces may have: touching faces, no interference.
+pub const MAX_OVERLAP_MM3: f64 = 1e-3;
+/// The cover's inner surface must lie on the fingertip within this (mm).
+pub const MAX_INNER_GAP_MM: f64 = 0.05;
+/// The cover's outer surface over a dome may deviate this much from the undisturbed offset (mm).
+pub const MAX_HUMP_MM: f64 = 0.05;
+
+fn v(part: &str, rule: &'static str, measured: String) -> Violation {
+    Violation { part: part.to_string(), rule, measured }
+}
+
+/// Point of the exact offset surface (pad offset by `t`) on the line q + s·dir, solved by Newton
+/// over (x, phi, s) from a start near q. Returns s.
+pub fn offset_along(shape: &Shape, t: f64, q: P3, dir: P3, s0: f64) -> Option<f64> {
+    let f = |x: f64, phi: f64, s: f64| -> P3 {
+        let b = shape.surface_point(x, phi);
+        let o = add(b, scale(shape.normal_at(b), t));
+        sub(o, add(q, scale(dir, s)))
+    };
+    let p0 = add(q, scale(dir, s0));
+    let (mut x, mut phi, mut s) = (p0[0], (p0[2]).atan2(p0[1] / shape.lateral), s0);
+    for _ in 0..40 {
+        let r = f(x, phi, s);
+        if norm(r) < 1e-10 {
+            return Some(s);
+        }
+        let h = 1e-6;
+        let cols = [sub(f(x + h, phi, s), r), sub(f(x, phi + h, s), r), sub(f(x, phi, s + h), r)].map(|c| scale(c, 1.0 / h));
+        let m = nalgebra::Matrix3::from_columns(&[cols[0].into(), cols[1].into(), cols[2].into()]);
+        let d = m.lu().solve(&nalgebra::Vector3::from(r))?;
+        x -= d[0];
+        phi -= d[1];
+        s -= d[2];
+    }
+    (norm(f(x, phi, s)) < 1e-6).then_some(s)
+}
+
+/// The conforming mold's checks. Returns the violations and the measurements.
+pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>, Value) {
+    let name = p.name.as_str();
+    let m = &p.mold;
+    let mut out = Vec::new();
+
+    // 1. the pieces do not intersect when assembled, nor reach into the cavity
+    let core_shell = a.core.intersection(&a.shell).volume();
+    let core_cav = a.core.intersection(&a.cavity).volume();
+    let shell_cav = a.shell.intersection(&a.cavity).volume();
+    for (what, vol) in [("core and shell", core_shell), ("core and cavity", core_cav), ("shell and cavity", shell_cav)] {
+        if vol > MAX_OVERLAP_MM3 {
+            out.push(v(name, "assembled mold pieces must not intersect", format!("{what} overlap {vol:.4} mm³")));
+        }
+    }
+
+    // 2. keys fit their holes with the stated clearance, and their holes keep a wall to the cavity
+    let c = m.key_clearance_mm;
+    let cos_d = m.draft_deg.to_radians().cos();
+    let mut key_gaps = Vec::new();
+    let mut key_walls = Vec::new();
+    for (i, (pin, hole)) in a.pins.iter().zip(&a.holes).enumerate() {
+        let below = pin.trim([0.0, 0.0, -1.0], -(a.z_parting - 0.05));
+        let gap = below.min_gap(&a.shell, c + 1.0);
+        key_gaps.push(gap);
+        if !(gap >= 0.9 * c * cos_d - 1e-6 && gap <= c + 0.02) {
+            out.push(v(name, "keys must fit their holes with the stated clearance", format!("key {i}: gap {gap:.3} mm for a clearance of {c} mm")));
+        }
+        let wall = hole.min_gap(&a.cavity, 3.0 * m.min_wall_mm);
+        key_walls.push(wall);
+        if wall < m.min_wall_mm - 1e-6 {
+            out.push(v(name, "key holes must keep the minimum wall to the cavity", format!("key {i}: {wall:.2} mm (minimum {})", m.min_wall_mm)));
+        }
+    }
+
+    // 3. the sprue and every vent open straight into the cavity
+    let mut openings_ok = Vec::new();
+    for (what, (xy, _)) in std::iter::once(("sprue", a.sprue)).chain(a.vents.iter().map(|v| ("vent", *v))) {
+        let top = [xy[0], xy[1], a.z_top + 1.0];
+        let bottom = [xy[0], xy[1], a.z_parting - 0.02];
+        let clear = a.core.ray_hits(top, bottom).is_empty() && a.shell.ray_hits(top, bottom).is_empty();
+        let into = a.cavity.contains(bottom, a.z_top + 2.0);
+        openings_ok.push(clear && into);
+        if !(clear && into) {
+            out.push(v(name, "the sprue and vents must open straight into the cavity", format!("{what} at ({:.2}, {:.2}): clear {clear}, reaches the cavity {into}", xy[0], xy[1])));
+        }
+    }
+
+    // 4. exactly one cavity, reachable from outside only through the sprue and the vents. The
+    // mold's pieces fill their bounding box but for the cavity and the openings, so the box less
+    // the pieces is the air inside the mold: with the openings open it must be one region that
+    // reaches the top face; with them plugged, one region inside the box with the cavity's volume.
+    let (lo, hi) = a.bounds;
+    let moldbox = Solid::cuboid(lo, hi);
+    let mut fill = vec![a.core.clone(), a.shell.clone()];
+    fill.extend(a.holes.iter().cloned()); // key clearances are closed pockets, not the cavity
+    let fill = Solid::union_all(&fill).expect("pieces");
+    let regions = |s: Solid| -> Vec<(f64, (P3, P3))> { s.0.decompose().into_iter().map(Solid).filter(|c| c.volume() > 1e-6).map(|c| (c.volume(), c.bbox())).collect() };
+    let open = regions(moldbox.difference(&fill));
+    let w = a.z_top - a.z_parting;
+    let mut plugs = Vec::new();
+    let st = m.sprue_taper_deg.to_radians().tan();
+    let r_sprue = a.sprue.1 + (w + 2.0) * st + 0.2;
+    plugs.push(Solid::cylinder([a.sprue.0[0], a.sprue.0[1], a.z_parting], [0.0, 0.0, 1.0], w + 3.0, r_sprue, r_sprue, 48));
+    for (xy, r) in &a.vents {
+        plugs.push(Solid::cylinder([xy[0], xy[1], a.z_parting], [0.0, 0.0, 1.0], w + 3.0, r + 0.2, r + 0.2, 24));
+    }
+    let sealed = regions(moldbox.difference(&fill.union(&Solid::union_all(&plugs).expect("plugs"))));
+    let cavity_vol = a.cavity.volume();
+    let open_ok = open.len() == 1 && (open[0].1 .1[2] - hi[2]).abs() < 1e-6;
+    if !open_ok {
+        out.push(v(name, "the cavity must reach the outside through the sprue and vents", format!("{} air regions inside the mold with the openings open (expected 1 reaching the top face)", open.len())));
+    }
+    let inside = |b: &(P3, P3)| (0..3).all(|i| b.0[i] > lo[i] + 1e-6 && b.1[i] < hi[i] - 1e-6);
+    let enclosed = if sealed.len() == 1 { sealed[0].0 } else { f64::NAN };
+    if sealed.len() != 1 || !inside(&sealed[0].1) || ((enclosed - cavity_vol) / cavity_vol).abs() > 1e-3 {
+        out.push(v(
+            name,
+            "the assembled mold must enclose exactly one cavity, closed but for the sprue and vents",
+            format!("{} air regions with the openings plugged (expected 1, inside the mold); enclosed {enclosed:.3} mm³ vs cavity {cavity_vol:.3} mm³", sealed.len()),
+        ));
+    }
+    let cover_vol = a.cover.volume();
+    let k3 = a.k.powi(3);
+    if ((cavity_vol / k3 - cover_vol) / cover_vol).abs() > 1e-6 {
+        out.push(v(name, "the cavity's volume must equal the cover's (times the shrinkage allowance)", format!("cavity {cavity_vol:.3} / {k3:.5} vs cover {cover_vol:.3} mm³")));
+    }
+
+    // 5. the cover's inner surface lies on the fingertip; domes fit; no hump over them
+    let (inner_max, inner_n) = inner_gap(p, l, a);
+    if inner_max > MAX_INNER_GAP_MM {
+        out.push(v(name, "the cover's inner surface must lie on the fingertip's pad", format!("max gap {inner_max:.3} mm over {inner_n} faces (limit {MAX_INNER_GAP_MM})")));
+    }
+    let tol = m.chordal_tolerance_mm;
+    let mut dome_overlap = Vec::new();
+    let mut dome_gap = Vec::new();
+    let mut humps = Vec::new();
+    for (i, d) in l.domes.iter().enumerate() {
+        let dome = Solid::cylinder(d.base, d.normal, d.depth, d.dome_r, d.dome_r, mesh::segments(d.dome_r, tol));
+        let ov = dome.intersection(&a.cover).volume();
+        let gap = dome.min_gap(&a.cover, 1.0);
+        dome_overlap.push(ov);
+        dome_gap.push(gap);
+        if ov > 1e-6 {
+            out.push(v(name, "each sensor dome must fit its cavity with clearance ≥ 0", format!("sensor[{i}]: dome overlaps the cover by {ov:.5} mm³")));
+        }
+        let hump = hump_mm(&l.shape, p.cover.thickness_mm, &a.cover, d.base, d.normal, d.r_base);
+        humps.push(hump);
+        if !(hump <= MAX_HUMP_MM) {
+            out.push(v(name, "the cover's outer surface must not hump over a dome", format!("sensor[{i}]: outer surface deviates {hump:.3} mm from the undisturbed offset (limit {MAX_HUMP_MM})")));
+        }
+    }
+
+    // 6. no undercut: every cavity face slopes by at least the draft and belongs to the piece
+    // that leaves in its direction (faces looking up to the core, looking down to the shell)
+    let (min_slope, wrong, checked) = draft_check(a, m.draft_deg);
+    if min_slope + 1e-3 < m.draft_deg {
+        out.push(v(name, "cavity walls must have the draft angle against the demolding direction", format!("steepest wall {min_slope:.3}° from the demolding direction, draft {}°", m.draft_deg)));
+    }
+    if wrong > 0 {
+        out.push(v(name, "no undercut: each cavity face must belong to the piece that leaves in its direction", format!("{wrong} of {checked} faces face the wrong piece")));
+    }
+
+    let measured = json!({
+        "overlap_core_shell_mm3": core_shell,
+        "overlap_core_cavity_mm3": core_cav,
+        "overlap_shell_cavity_mm3": shell_cav,
+        "key_gaps_mm": key_gaps,
+        "key_hole_walls_mm": key_walls,
+        "openings_reach_cavity": openings_ok,
+        "air_regions_open": open.len(),
+        "air_regions_sealed": sealed.len(),
+        "enclosed_volume_mm3": enclosed,
+        "cavity_volume_mm3": cavity_vol,
+        "cover_volume_mm3": cover_vol,
+        "shrinkage_volume_factor": k3,
+        "inner_surface_max_gap_mm": inner_max,
+        "inner_surface_faces_checked": inner_n,
+        "dome_overlap_mm3": dome_overlap,
+        "dome_min_gap_mm": dome_gap,
+        "hump_over_dome_mm": humps,
+        "min_wall_slope_deg": min_slope,
+        "faces_facing_wrong_piece": wrong,
+        "cavity_faces_checked": checked,
+    });
+    (out, measured)
+}
+
+/// Largest gap (along the face normal) between the cover's inner faces and the finished
+/// fingertip, leaving out the faces over the seat pockets, tail channels and dome cavities.
+fn inner_gap(p: &MoldParams, l: &Layout, a: &Assembled) -> (f64, usize) {
+    let Ok(tip) = fingertip::build(&p.fingertip) else {
+        return (f64::INFINITY, 0);
+    };
+    // back from the fingertip's print frame (y, z, x) to the design frame
+    let tip = tip.solid.place([0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0; 3]);
+    let cover = a.cover.to_mesh();
+    let mut worst: f64 = 0.0;
+    let mut n = 0;
+    'faces: for t in &cover.triangles {
+        let [p0, p1, p2] = t.map(|i| cover.vertices[i as usize]);
+        let nrm = mesh::cross(sub(p1, p0), sub(p2, p0));
+        if norm(nrm) < 1e-12 {
+            continue;
+        }
+        let nn = mesh::unit(nrm);
+        let c = scale(add(add(p0, p1), p2), 1.0 / 3.0);
+        // inner faces lie on the core surface
+        if a.core_surface.ray_hits(sub(c, scale(nn, 1e-3)), add(c, scale(nn, 1e-3))).is_empty() {
+            continue;
+        }
+        for (st, (s, d)) in l.seats.iter().zip(p.fingertip.sensors.iter().zip(&l.domes)) {
+            let rel = sub(c, st.flat_center);
+            let h = dot(rel, st.normal);
+            let radial = norm(sub(rel, scale(st.normal, h)));
+            if radial < s.seat_diameter_mm / 2.0 + 0.05 || (radial < d.r_base + 0.05 && h > 1e-3) {
+                continue 'faces;
+            }
+            let path = fingertip::channel_path(&l.shape, s);
+            let band = s.channel_width_mm / 2.0 + 2.0 * s.channel_depth_mm + 0.2; // flared walls break out wider on a slope
+            for w in path.windows(2) {
+                let (a2, b2) = (w[0], w[1]);
+                let dd = [b2[0] - a2[0], b2[1] - a2[1]];
+                let l2 = dd[0] * dd[0] + dd[1] * dd[1];
+                let tt = (((c[0] - a2[0]) * dd[0] + (c[1] - a2[1]) * dd[1]) / l2).clamp(0.0, 1.0);
+                if ((c[0] - a2[0] - tt * dd[0]).powi(2) + (c[1] - a2[1] - tt * dd[1]).powi(2)).sqrt() < band {
+                    continue 'faces;
+                }
+            }
+        }
+        n += 1;
+        let hits = tip.ray_hits(sub(c, scale(nn, 0.2)), add(c, scale(nn, 0.2)));
+        let gap = hits.iter().map(|h| (h - 0.2).abs()).fold(f64::INFINITY, f64::min);
+        worst = worst.max(gap);
+    }
+    (worst, n)
+}
+
+/// Largest deviation of the cover's outer surface over a dome (within the cavity's radius) from
+/// the exact offset surface, measured along the seat normal.
+fn hump_mm(shape: &Shape, t: f64, cover: &Solid, base: P3, normal: P3, radius: f64) -> f64 {
+    let (u, w, _) = frame(normal);
+    let mut worst: f64 = 0.0;
+    for i in -6..=6 {
+        for j in -6..=6 {
+            let (a, b) = (radius * i as f64 / 6.0, radius * j as f64 / 6.0);
+            if a * a + b * b > radius * radius {
+                continue;
+            }
+            let q = add(base, add(scale(u, a), scale(w, b)));
+            let far = 10.0;
+            let hits = cover.ray_hits(add(q, scale(normal, far)), q);
+            let Some(first) = hits.first() else {
+                return f64::INFINITY;
+            };
+            let measured = far - first;
+            let Some(exact) = offset_along(shape, t, q, normal, t) else {
+                return f64::INFINITY;
+            };
+            worst = worst.max((measured - exact).abs());
+        }
+    }
+    worst
+}
+
+/// Smallest angle between any cavity face and the demolding direction (deg), how many faces face
+/// a piece that cannot leave in their direction, and how many faces were checked.
+fn draft_check(a: &Assembled, _draft: f64) -> (f64, usize, usize) {
+    let cav = a.cavity.to_mesh();
+    let mut min_slope = 90.0f64;
+    let mut wrong = 0;
+    let mut n = 0;
+    let above = a.z_top + 5.0;
+    for t in &cav.triangles {
+        let [p0, p1, p2] = t.map(|i| cav.vertices[i as usize]);
+        let nrm = mesh::cross(sub(p1, p0), sub(p2, p0));
+        let area2 = norm(nrm);
+        if area2 < 1e-10 {
+            continue;
+        }
+        let nn = scale(nrm, 1.0 / area2);
+        n += 1;
+        min_slope = min_slope.min(nn[2].abs().asin().to_degrees());
+        let c = scale(add(add(p0, p1), p2), 1.0 / 3.0);
+        let probe = add(c, scale(nn, 0.02));
+        let under_opening = std::iter::once(a.sprue).chain(a.vents.iter().copied()).any(|(xy, r)| ((c[0] - xy[0]).powi(2) + (c[1] - xy[1]).powi(2)).sqrt() < r + 0.05 + (a.z_top - a.z_parting));
+        if nn[2] > 0.999 && (c[2] - a.z_parting).abs() < 1e-6 && under_opening {
+            continue; // the rim under the sprue or a vent: the opening, no piece
+        }
+        let owner_ok = if nn[2] > 0.0 { a.core.contains(probe, above) } else { a.shell.contains(probe, above) };
+        if !owner_ok {
+            wrong += 1;
+        }
+    }
+    (min_slope, wrong, n)
+}

@@ -1,0 +1,244 @@
+//! The conforming two-part mold: core (flange + pad-shaped plug with the sensor domes in place,
+//! registration pins, sprue and vents) and shell (the pad's exact offset, key holes), and the
+//! cover they cast.
+
+use super::{checks, layout, material, notes, openings, Layout, MoldBuild};
+use crate::error::{Error, Result};
+use crate::fingertip;
+use crate::mesh::{segments, sub, scale, Solid, P3};
+use crate::params::mold::MoldParams;
+use crate::part::{Assembly, Part};
+use serde_json::{json, Map};
+
+const UP: P3 = [0.0, 0.0, 1.0];
+const DOWN: P3 = [0.0, 0.0, -1.0];
+
+/// Everything the checks need, in the assembled frame (design frame; the mold's cavity scaled up
+/// by the shrinkage about `scale_center`).
+pub struct Assembled {
+    pub core: Solid,
+    pub shell: Solid,
+    /// The cavity = the cover scaled by `k`.
+    pub cavity: Solid,
+    /// The cover as cast (nominal size, design frame).
+    pub cover: Solid,
+    /// The fingertip-shaped surface the cover's inner side takes (pad, flats, domes), nominal.
+    pub core_surface: Solid,
+    pub k: f64,
+    pub scale_center: P3,
+    pub z_parting: f64,
+    /// Top of the core's flange.
+    pub z_top: f64,
+    pub sprue: ([f64; 2], f64),
+    pub vents: Vec<([f64; 2], f64)>,
+    /// Key pins and their holes, in the assembled pose.
+    pub pins: Vec<Solid>,
+    pub holes: Vec<Solid>,
+    pub bounds: (P3, P3),
+}
+
+/// The pad with its flat seats and the dome cavities' bosses standing on them (nominal).
+fn core_surface(p: &MoldParams, l: &Layout, body: &Solid, tol: f64) -> Solid {
+    let flats: Vec<Solid> = l.seats.iter().zip(&p.fingertip.sensors).map(|(st, s)| fingertip::spot_face(st, s, tol)).collect();
+    let pad = match Solid::union_all(&flats) {
+        Some(f) => body.difference(&f),
+        None => body.clone(),
+    };
+    let mut parts = vec![pad];
+    for d in &l.domes {
+        let sink = 0.05;
+        // a polygon's facets lean less than its circle's cone by cos(pi/n): lean the cone more
+        // so every facet keeps the full taper
+        let n = segments(d.r_base, tol);
+        let tan = d.taper_deg.to_radians().tan() / (std::f64::consts::PI / n as f64).cos();
+        parts.push(Solid::cylinder(sub(d.base, scale(d.normal, sink)), d.normal, d.depth + sink, d.r_base + sink * tan, d.r_base - d.depth * tan, n));
+    }
+    Solid::union_all(&parts).expect("the pad")
+}
+
+pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
+    let name = p.name.as_str();
+    let l = layout(p).map_err(|e| Error::geometry(name, e))?;
+    let (m, c) = (&p.mold, &p.cover);
+    let tol = m.chordal_tolerance_mm;
+    let t = c.thickness_mm;
+    let s = &l.shape;
+    let ze = l.z_parting;
+    let body = Solid::from_mesh(&s.body_mesh(tol, name)?, name)?;
+    let outer = Solid::from_mesh(&s.offset_mesh(t, tol, name)?, name)?;
+    let surface = core_surface(p, &l, &body, tol);
+
+    // the cavity's region: below the parting plane and beyond the cover's end plane, which leans
+    // by the draft (x grows downward) so the shell drops off the cover's end and the core's plug
+    // lifts off it; before that plane the shell is solid
+    let big_y = p.fingertip.body.width_mm + 2.0 * t + 20.0;
+    let depth = p.fingertip.body.thickness_mm + 2.0 * t + 20.0;
+    let far_x = s.length + t + 10.0;
+    let tan = m.draft_deg.to_radians().tan();
+    // (`up` extends it above the parting plane, `back` behind the end plane: the plug cut with
+    // them overlaps the flange, and the cover is cut with no coplanar faces)
+    let region = |up: f64, back: f64| {
+        let mut hull = Vec::new();
+        for y in [-big_y, big_y] {
+            for z in [ze + up, ze - depth] {
+                hull.push([l.x_start - back + tan * (ze - z), y, z]);
+                hull.push([far_x, y, z]);
+            }
+        }
+        Solid::hull(&hull)
+    };
+    let cup = outer.intersection(&region(0.0, 0.0));
+    let plug = surface.intersection(&region(1.0, 0.0));
+    let plug_cut = surface.intersection(&region(1.0, 0.5));
+    let (cover, _) = cup.difference(&plug_cut).drop_slivers(1e-6);
+    cover.ok(name)?;
+
+    // the mold's cavity is the cover grown by the shrinkage, about a point of the parting plane
+    let k = 1.0 + c.shrinkage_percent / 100.0;
+    let center = [l.x_start, 0.0, ze];
+    let cup_k = cup.scale_about(k, center);
+    let plug_k = plug.scale_about(k, center);
+    let cavity = cover.scale_about(k, center);
+    let (lo, hi) = cup_k.bbox();
+    let w = m.wall_thickness_mm;
+    let x_lo_k = l.x_start - k * w;
+    let (kr, kc) = (m.key_diameter_mm / 2.0, m.key_clearance_mm);
+    let half_y = lo[1].abs().max(hi[1].abs()) + 2.0 * w + 2.0 * (kr + kc);
+    let x_hi = hi[0] + w;
+    let z_lo = lo[2] - w;
+    let z_top = ze + w;
+
+    // registration keys: tapered pins under the flange, holes in the shell's top face
+    let inset = w + kr + kc;
+    let corners = [[x_lo_k + inset, -half_y + inset], [x_hi - inset, half_y - inset], [x_lo_k + inset, half_y - inset], [x_hi - inset, -half_y + inset]];
+    let dtan = m.draft_deg.to_radians().tan();
+    let (h, lift) = (m.key_height_mm, 0.5);
+    let mut pins = Vec::new();
+    let mut holes = Vec::new();
+    for kxy in corners.iter().take(m.key_count) {
+        let top = [kxy[0], kxy[1], ze + lift];
+        pins.push(Solid::cylinder(top, DOWN, lift + h, kr + lift * dtan, kr - h * dtan, segments(kr + kc, tol)));
+        holes.push(Solid::cylinder(top, DOWN, lift + h + kc, kr + kc + lift * dtan, kr + kc - (h + kc) * dtan, segments(kr + kc, tol)));
+    }
+
+    // sprue (widening upward) and vents through the flange
+    let (sprue_xy, vent_xy) = openings(p, &l);
+    let rs = m.sprue_diameter_mm / 2.0;
+    let st = m.sprue_taper_deg.to_radians().tan();
+    let mut openings_cut = vec![Solid::cylinder([sprue_xy[0], sprue_xy[1], ze - 1.0], UP, w + 2.0, (rs - st).max(0.05), rs + (w + 1.0) * st, segments(rs + w * st, tol))];
+    let rv = m.vent_diameter_mm / 2.0;
+    for v in &vent_xy {
+        openings_cut.push(Solid::cylinder([v[0], v[1], ze - 1.0], UP, w + 2.0, rv, rv, segments(rv, tol)));
+    }
+    let flange = Solid::cuboid([x_lo_k, -half_y, ze], [x_hi, half_y, z_top]).difference(&Solid::union_all(&openings_cut).expect("sprue"));
+    let mut core_parts = vec![flange, plug_k];
+    core_parts.extend(pins.iter().cloned());
+    let core = Solid::union_all(&core_parts).expect("core");
+    let mut shell_cut = vec![cup_k];
+    shell_cut.extend(holes.iter().cloned());
+    let shell = Solid::cuboid([x_lo_k, -half_y, z_lo], [x_hi, half_y, ze]).difference(&Solid::union_all(&shell_cut).expect("cup"));
+    core.ok(&format!("{name}-core"))?;
+    shell.ok(&format!("{name}-shell"))?;
+    let a = Assembled {
+        core,
+        shell,
+        cavity,
+        cover,
+        core_surface: surface,
+        k,
+        scale_center: center,
+        z_parting: ze,
+        z_top,
+        sprue: (sprue_xy, rs),
+        vents: vent_xy.iter().map(|v| (*v, rv)).collect(),
+        pins,
+        holes,
+        bounds: ([x_lo_k, -half_y, z_lo], [x_hi, half_y, z_top]),
+    };
+    Ok((l, a))
+}
+
+pub fn build(p: &MoldParams) -> Result<MoldBuild> {
+    let name = p.name.as_str();
+    let (l, a) = assemble(p)?;
+    let (violations, measured) = checks::conforming(p, &l, &a);
+    let z_lo = a.bounds.0[2];
+    // print poses: the shell as it stands (cavity up); the core flange-down (plug and pins up);
+    // the cover in the fingertip's print frame, so it overlays fingertip STL
+    let shell_print = a.shell.translate([0.0, 0.0, -z_lo]);
+    let core_print = a.core.place([1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, a.z_top]);
+    let cover_print = a.cover.place([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0; 3]);
+    let cover_name = p.cover_name();
+    let mat = material(p, a.cover.volume());
+    let piece = |solid: Solid, suffix: &str, genus: i32, to_assembled: serde_json::Value| Part {
+        name: format!("{name}-{suffix}"),
+        mesh: solid.to_mesh(),
+        solid,
+        expected_genus: genus,
+        density_g_cm3: p.mold.density_g_cm3,
+        infill: 1.0,
+        write_3mf: true,
+        features: json!({
+            "kind": format!("mold-{suffix}"),
+            "mold": name,
+            "to_assembled": to_assembled,
+            "min_wall_mm": p.mold.min_wall_mm,
+            "chordal_tolerance_mm": p.mold.chordal_tolerance_mm,
+        }),
+        extra: Default::default(),
+    };
+    // to_assembled: rows of a 3×4 matrix [R | t] mapping the print pose back to the assembly
+    let core = piece(core_print, "core", 1 + p.mold.vent_count as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
+    let shell = piece(shell_print, "shell", 0, json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]]));
+    let domes: Vec<serde_json::Value> = l
+        .domes
+        .iter()
+        .map(|d| {
+            json!({
+                "base": fingertip::to_print(d.base),
+                "normal": fingertip::to_print(d.normal),
+                "cavity_base_diameter_mm": 2.0 * d.r_base,
+                "cavity_top_diameter_mm": 2.0 * d.r_top,
+                "depth_mm": d.depth,
+                "dome_diameter_mm": 2.0 * d.dome_r,
+                "skin_mm": d.skin,
+            })
+        })
+        .collect();
+    let cover = Part {
+        name: cover_name.clone(),
+        mesh: cover_print.to_mesh(),
+        solid: cover_print,
+        expected_genus: 0,
+        density_g_cm3: p.cover.density_g_cm3,
+        infill: 1.0,
+        write_3mf: false,
+        features: json!({
+            "kind": "cover",
+            "mold": name,
+            "fingertip": p.fingertip.name,
+            "frame": "the fingertip's print frame: the cover sits on fingertip STL as exported",
+            "thickness_mm": p.cover.thickness_mm,
+            "domes": domes,
+            "shrinkage_scale": a.k,
+        }),
+        extra: Default::default(),
+    };
+    let exploded = a.core.translate([0.0, 0.0, 25.0]);
+    let assembly = Assembly {
+        name: format!("{name}-assembly"),
+        parts: vec![(format!("{name}-shell"), a.shell.to_mesh()), (cover_name.clone(), a.cavity.to_mesh()), (format!("{name}-core (lifted 25 mm)"), exploded.to_mesh())],
+    };
+    let mut manifest = Map::new();
+    let mut entry = Map::new();
+    entry.insert("style".into(), json!("conforming"));
+    entry.insert("fingertip".into(), json!(p.fingertip_file));
+    entry.insert("pieces".into(), json!([core.name, shell.name]));
+    entry.insert("cover".into(), json!(cover_name));
+    entry.insert("material".into(), mat.clone());
+    entry.insert("demolding".into(), json!("core lifts along the fingertip's +z (toward the nail), shell drops along -z; parting plane at the cover's edge"));
+    entry.insert("parting_plane_z_mm".into(), json!(a.z_parting));
+    entry.insert("checks".into(), measured);
+    manifest.insert(name.to_string(), serde_json::Value::Object(entry));
+    Ok(MoldBuild { parts: vec![core, shell, cover], assemblies: vec![assembly], violations, manifest, notes: notes(name, &mat) })
+}

@@ -1,0 +1,372 @@
+//! PDMS cover molds. `validate` checks the rules that need the fingertip's shape; `build` makes the
+//! pieces and the cast cover; `checks` proves the assembled mold before anything is written.
+//!
+//! Conforming style: the cavity lies between a core (the fingertip's pad with its flat seats and
+//! the sensor domes in place) and a shell (the pad's exact offset surface at the cover thickness),
+//! below a parting plane under the fingertip's mid-plane. The mold opens along z: the shell comes
+//! off downward, the core (a flange carrying the pad-shaped plug) upward.
+//! Flat style: the paper's petri-dish method, a tray that casts a flat sheet with dome patterns.
+
+pub mod checks;
+pub mod conforming;
+pub mod flat;
+
+use crate::fingertip::{self, Seat, Shape};
+use crate::mesh::{self, P3};
+use crate::params::mold::{MoldParams, Style};
+use crate::part::{Assembly, Part};
+use serde_json::{json, Map, Value};
+
+/// What building one mold file gives.
+pub struct MoldBuild {
+    pub parts: Vec<Part>,
+    pub assemblies: Vec<Assembly>,
+    pub violations: Vec<crate::checks::Violation>,
+    /// The `molds` manifest section entry (material estimate, checks' measurements).
+    pub manifest: Map<String, Value>,
+    /// Plain-words lines for the build summary.
+    pub notes: Vec<String>,
+}
+
+/// Where things are, in the design frame, derived once from the parameters.
+#[derive(Debug, Clone)]
+pub struct Layout {
+    pub shape: Shape,
+    /// Parting plane height (negative: below the mid-plane).
+    pub z_parting: f64,
+    /// The cover starts here (toward the mount) and runs to the tip.
+    pub x_start: f64,
+    pub seats: Vec<Seat>,
+    pub domes: Vec<Dome>,
+}
+
+/// One dome cavity on the cover's inner side, over a seat.
+#[derive(Debug, Clone)]
+pub struct Dome {
+    /// Centre of the board's top face = the flat seat plane's centre.
+    pub base: P3,
+    /// Outward seat normal (away from the fingertip).
+    pub normal: P3,
+    /// Cavity radius at the board and at its top (its wall is drafted for demolding).
+    pub r_base: f64,
+    pub r_top: f64,
+    pub depth: f64,
+    /// The sensor dome's own size.
+    pub dome_r: f64,
+    /// Angle between the seat normal and the demolding direction (deg).
+    pub tilt_deg: f64,
+    /// Wall taper of the cavity (deg) = draft + tilt.
+    pub taper_deg: f64,
+    /// Cover left over the dome (mm).
+    pub skin: f64,
+}
+
+pub fn layout(p: &MoldParams) -> std::result::Result<Layout, String> {
+    let shape = Shape::new(&p.fingertip.body);
+    let mut seats = Vec::new();
+    let mut domes = Vec::new();
+    for (i, s) in p.fingertip.sensors.iter().enumerate() {
+        let st = fingertip::seat(&shape, s).map_err(|w| format!("sensor[{i}] {w}"))?;
+        let tilt = (-st.normal[2]).clamp(-1.0, 1.0).acos().to_degrees();
+        let taper = p.mold.draft_deg + tilt;
+        let r_base = (s.dome_diameter_mm + p.cover.dome_clearance_mm) / 2.0;
+        let r_top = r_base - s.dome_height_mm * taper.to_radians().tan();
+        domes.push(Dome {
+            base: st.flat_center,
+            normal: st.normal,
+            r_base,
+            r_top,
+            depth: s.dome_height_mm,
+            dome_r: s.dome_diameter_mm / 2.0,
+            tilt_deg: tilt,
+            taper_deg: taper,
+            skin: p.cover.thickness_mm + st.flat_depth - s.dome_height_mm,
+        });
+        seats.push(st);
+    }
+    Ok(Layout { z_parting: -p.mold.parting_below_midplane_mm, x_start: p.fingertip.body.length_mm - p.cover.from_tip_mm, shape, seats, domes })
+}
+
+/// Downward tilt (deg below horizontal) of the exact normal along the cover's edge, on the pad
+/// (the core's side) and on the offset surface (the shell's side): the smaller of the two at each
+/// sample, minimised over the edge. None when the pad does not reach below the parting plane.
+pub fn edge_tilt_deg(shape: &Shape, z_e: f64, x_start: f64, t: f64) -> Option<f64> {
+    let mut worst = f64::INFINITY;
+    let mut any = false;
+    let n = 200;
+    for i in 0..=n {
+        let x = x_start + (shape.length - x_start) * i as f64 / n as f64;
+        let r = shape.r(x);
+        if r <= -z_e {
+            continue;
+        }
+        // pad side: the point at z = z_e on the y > 0 flank
+        let q = [x, shape.lateral * (r * r - z_e * z_e).sqrt(), z_e];
+        let nb = shape.normal_at(q);
+        // offset side: the pad point whose offset lands on z = z_e (bisection over the angle)
+        let f = |phi: f64| {
+            let p = shape.surface_point(x, phi);
+            p[2] + t * shape.normal_at(p)[2] - z_e
+        };
+        let (mut lo, mut hi) = (-std::f64::consts::FRAC_PI_2, 0.0);
+        if f(lo) > 0.0 || f(hi) < 0.0 {
+            continue;
+        }
+        for _ in 0..50 {
+            let mid = 0.5 * (lo + hi);
+            if f(mid) < 0.0 {
+                lo = mid
+            } else {
+                hi = mid
+            }
+        }
+        let no = shape.normal_at(shape.surface_point(x, lo));
+        any = true;
+        worst = worst.min((-nb[2]).asin().to_degrees()).min((-no[2]).asin().to_degrees());
+    }
+    any.then_some(worst)
+}
+
+/// Mid-line of the cavity's rim at the parting plane (plan points), from the mount end on the
+/// −y flank round the tip to the +y flank. The rim is the band between the pad and its offset;
+/// its horizontal width is t / cos(tilt) for the local normal tilt.
+pub fn rim_midline(l: &Layout, t: f64) -> Vec<[f64; 2]> {
+    let s = &l.shape;
+    let z = l.z_parting;
+    let mut side = Vec::new();
+    let n = 120;
+    // x where the pad's bottom meets the parting plane (the rim's tip end)
+    let (mut lo, mut hi) = (l.x_start, s.length);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if s.r(mid) > -z {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    let x_tip = lo;
+    for i in 0..n {
+        let x = l.x_start + 0.5 + (x_tip - l.x_start - 0.5) * i as f64 / n as f64;
+        let r = s.r(x);
+        if r <= -z {
+            continue;
+        }
+        let q = [x, s.lateral * (r * r - z * z).sqrt(), z];
+        let nv = s.normal_at(q);
+        let h = (nv[0] * nv[0] + nv[1] * nv[1]).sqrt();
+        let w = t / h.max(1e-3);
+        side.push([q[0] + nv[0] / h * w / 2.0, q[1] + nv[1] / h * w / 2.0]);
+    }
+    let nv = s.normal_at([x_tip, 0.0, z]);
+    let tip = [x_tip + t / nv[0].max(1e-3) / 2.0, 0.0];
+    let mut out: Vec<[f64; 2]> = side.iter().map(|p| [p[0], -p[1]]).collect();
+    out.push(tip);
+    out.extend(side.iter().rev().copied());
+    out
+}
+
+/// Sprue axis (plan) and vent axes: the sprue where the file says or at the tip; vents at the rim
+/// points farthest from the sprue and from each other (where the last air is pushed).
+pub fn openings(p: &MoldParams, l: &Layout) -> ([f64; 2], Vec<[f64; 2]>) {
+    let rim = rim_midline(l, p.cover.thickness_mm);
+    let sprue = p.mold.sprue_xy_mm.unwrap_or(rim[rim.len() / 2]);
+    let mut chosen = vec![sprue];
+    let mut vents = Vec::new();
+    for _ in 0..p.mold.vent_count {
+        let best = rim
+            .iter()
+            .map(|q| (chosen.iter().map(|c| ((q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2)).sqrt()).fold(f64::INFINITY, f64::min), *q))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, q)| q)
+            .expect("rim has points");
+        chosen.push(best);
+        vents.push(best);
+    }
+    (sprue, vents)
+}
+
+/// Whether a point of the parting plane lies inside the cavity's rim (between the pad and its
+/// offset, on the covered part of the pad).
+pub fn in_rim(l: &Layout, t: f64, xy: [f64; 2]) -> bool {
+    let p = [xy[0], xy[1], l.z_parting - 1e-3];
+    xy[0] > l.x_start && !l.shape.inside(p) && l.shape.offset_distance(p, 0.0) < t
+}
+
+/// Rules that need the fingertip's shape. Returns (path, value, message) for each problem.
+pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
+    let mut out = Vec::new();
+    let mut push = |path: &str, value: String, msg: String| out.push((path.to_string(), value, msg));
+    let l = match layout(p) {
+        Ok(l) => l,
+        Err(e) => {
+            push("fingertip", p.fingertip_file.clone(), format!("the fingertip's seats cannot be located: {e}"));
+            return out;
+        }
+    };
+    let (c, m) = (&p.cover, &p.mold);
+    let t = c.thickness_mm;
+    if t < m.min_detail_mm {
+        push("cover.thickness_mm", t.to_string(), format!("thinner than printable detail ({} mm, mold.min_detail_mm): the mold's gap could not be printed", m.min_detail_mm));
+    }
+    for (i, d) in l.domes.iter().enumerate() {
+        if d.skin < m.min_detail_mm {
+            push(
+                "cover.thickness_mm",
+                t.to_string(),
+                format!(
+                    "the dome cavity over sensor[{i}] (dome {} mm high on a seat {:.2} mm below the pad) leaves {:.2} mm of cover, less than {} mm, so it breaks through: use at least {:.2} mm",
+                    d.depth,
+                    d.skin - t + d.depth,
+                    d.skin,
+                    m.min_detail_mm,
+                    t - d.skin + m.min_detail_mm
+                ),
+            );
+        }
+        if d.r_top < d.dome_r {
+            let need = 2.0 * (d.dome_r + d.depth * d.taper_deg.to_radians().tan()) - 2.0 * d.dome_r;
+            push(
+                "cover.dome_clearance_mm",
+                c.dome_clearance_mm.to_string(),
+                format!(
+                    "the dome cavity over sensor[{i}] is drafted {:.1}° (draft {}° + seat tilt {:.1}°), which leaves its top {:.2} mm across, narrower than the {:.1} mm dome: use a clearance of at least {:.2} mm",
+                    d.taper_deg,
+                    m.draft_deg,
+                    d.tilt_deg,
+                    2.0 * d.r_top,
+                    2.0 * d.dome_r,
+                    need
+                ),
+            );
+        }
+    }
+    if p.style == Style::Flat {
+        return out;
+    }
+    let s = &l.shape;
+    let pad = s.pad_depth;
+    if m.parting_below_midplane_mm >= pad - t.max(m.min_detail_mm) {
+        push(
+            "mold.parting_below_midplane_mm",
+            m.parting_below_midplane_mm.to_string(),
+            format!("the parting plane must lie inside the pad (depth {pad:.2} mm): use less than {:.2} mm", pad - t.max(m.min_detail_mm)),
+        );
+        return out;
+    }
+    if l.x_start < m.wall_thickness_mm + 1.0 {
+        push(
+            "cover.from_tip_mm",
+            c.from_tip_mm.to_string(),
+            format!("runs too close to the mount face (body {} mm long): the mold's plug needs {} mm beyond the cover's end; use at most {:.1}", s.length, m.wall_thickness_mm + 1.0, s.length - m.wall_thickness_mm - 1.0),
+        );
+    }
+    match edge_tilt_deg(s, l.z_parting, l.x_start, t) {
+        Some(tilt) if tilt + 1e-9 < m.draft_deg => push(
+            "mold.parting_below_midplane_mm",
+            m.parting_below_midplane_mm.to_string(),
+            format!("the pad meets the parting plane at {tilt:.2}° from vertical, less than the draft {}°, so the pieces would drag on the cover: move the parting plane further below the mid-plane", m.draft_deg),
+        ),
+        None => push("mold.parting_below_midplane_mm", m.parting_below_midplane_mm.to_string(), "the pad does not reach below the parting plane".into()),
+        _ => {}
+    }
+    // every seat's flat region must lie inside the cover
+    for (i, (st, sp)) in l.seats.iter().zip(&p.fingertip.sensors).enumerate() {
+        let (u, v, _) = mesh::frame(st.normal);
+        let rf = sp.flat_diameter_mm / 2.0;
+        let (mut xmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..36 {
+            let a = 2.0 * std::f64::consts::PI * k as f64 / 36.0;
+            let q = mesh::add(st.flat_center, mesh::add(mesh::scale(u, rf * a.cos()), mesh::scale(v, rf * a.sin())));
+            xmin = xmin.min(q[0]);
+            zmax = zmax.max(q[2]);
+        }
+        if xmin < l.x_start + 0.5 {
+            push("cover.from_tip_mm", c.from_tip_mm.to_string(), format!("the cover ends at x = {:.2} mm but sensor[{i}]'s flat seat reaches x = {xmin:.2} mm: cover at least {:.1} mm from the tip", l.x_start, s.length - xmin + 0.5));
+        }
+        if zmax > l.z_parting - 0.2 {
+            push(
+                "mold.parting_below_midplane_mm",
+                m.parting_below_midplane_mm.to_string(),
+                format!("sensor[{i}]'s flat seat rises to z = {zmax:.2} mm, above the parting plane less 0.2 mm: the cover would not wrap it; use at most {:.2}", -zmax - 0.2),
+            );
+        }
+    }
+    // keys: the holes must stop a wall short of the shell's floor
+    let floor_depth = pad + t - m.parting_below_midplane_mm + m.wall_thickness_mm;
+    if m.key_height_mm + m.key_clearance_mm + m.min_wall_mm > floor_depth {
+        push(
+            "mold.key_height_mm",
+            m.key_height_mm.to_string(),
+            format!("the key holes ({} mm + {} mm clearance) would leave less than {} mm under them in a shell {floor_depth:.2} mm deep: use at most {:.2}", m.key_height_mm, m.key_clearance_mm, m.min_wall_mm, floor_depth - m.key_clearance_mm - m.min_wall_mm),
+        );
+    }
+    if m.vent_diameter_mm > t - 0.1 {
+        push("mold.vent_diameter_mm", m.vent_diameter_mm.to_string(), format!("wider than the cavity's rim ({t} mm less 0.1): the vent would not open into the cavity alone"));
+    }
+    if let Some(xy) = m.sprue_xy_mm {
+        if !in_rim(&l, t, xy) {
+            push(
+                "mold.sprue_xy_mm",
+                format!("[{}, {}]", xy[0], xy[1]),
+                format!("the sprue is outside the cavity: its axis must meet the cover's rim at the parting plane (x > {:.1}, between the pad and {t} mm outside it); leave it out to pour at the tip", l.x_start),
+            );
+        }
+    }
+    out
+}
+
+/// PDMS material estimate for a cover volume (mm³).
+pub fn material(p: &MoldParams, cover_mm3: f64) -> Value {
+    let c = &p.cover;
+    let mass = cover_mm3 / 1000.0 * c.density_g_cm3;
+    let total = mass * (1.0 + c.waste_margin_percent / 100.0);
+    let base = total * c.mix_ratio / (c.mix_ratio + 1.0);
+    let agent = total / (c.mix_ratio + 1.0);
+    let m = p.mold.material;
+    let cure = match m {
+        crate::params::mold::Material::Pla => "PLA softens near 55 °C: cure at room temperature (about 48 h at 25 °C) or at most 40 °C (about 24 h); do not use the 65–150 °C schedules",
+        _ => "cure at most 65 °C (about 4 h at 65 °C) or 48 h at room temperature; resin molds must be fully post-cured first or they inhibit the PDMS cure",
+    };
+    json!({
+        "cover_volume_mm3": cover_mm3,
+        "pdms_density_g_cm3": c.density_g_cm3,
+        "pdms_mass_g": mass,
+        "waste_margin_percent": c.waste_margin_percent,
+        "mix_ratio": format!("{}:1", c.mix_ratio),
+        "sylgard_base_g": base,
+        "curing_agent_g": agent,
+        "youngs_modulus_mpa_estimate": 20.0 / c.mix_ratio,
+        "youngs_modulus_note": "estimate: about 20 MPa divided by the base:agent ratio (after Wang et al. 2014); measure your own batch",
+        "shrinkage_percent": c.shrinkage_percent,
+        "mold_material": m.name(),
+        "max_cure_temperature_c": m.max_cure_c(),
+        "cure_advice": cure,
+    })
+}
+
+/// The summary lines a person reads after a build.
+pub fn notes(name: &str, mat: &Value) -> Vec<String> {
+    let g = |k: &str| mat[k].as_f64().unwrap_or(f64::NAN);
+    vec![
+        format!(
+            "{name}: the cover is {:.0} mm³ = {:.2} g of PDMS; mix {:.2} g Sylgard 184 base with {:.2} g curing agent ({} incl. {:.0} % for waste); Young's modulus about {:.1} MPa (estimate)",
+            g("cover_volume_mm3"),
+            g("pdms_mass_g"),
+            g("sylgard_base_g"),
+            g("curing_agent_g"),
+            mat["mix_ratio"].as_str().unwrap_or(""),
+            g("waste_margin_percent"),
+            g("youngs_modulus_mpa_estimate")
+        ),
+        format!("{name}: {} mold — {}", mat["mold_material"].as_str().unwrap_or(""), mat["cure_advice"].as_str().unwrap_or("")),
+    ]
+}
+
+/// Builds a mold file's parts.
+pub fn build(p: &MoldParams) -> crate::error::Result<MoldBuild> {
+    match p.style {
+        Style::Conforming => conforming::build(p),
+        Style::Flat => flat::build(p),
+    }
+}
