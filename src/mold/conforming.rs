@@ -123,6 +123,9 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
 
     // sprue (widening upward) and vents through the flange
     let (sprue_xy, vent_xy) = openings(p, &l);
+    // they were placed on the nominal rim: move them with the cavity's growth
+    let grow = |q: [f64; 2]| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1])];
+    let (sprue_xy, vent_xy): ([f64; 2], Vec<[f64; 2]>) = (grow(sprue_xy), vent_xy.into_iter().map(grow).collect());
     let rs = m.sprue_diameter_mm / 2.0;
     let st = m.sprue_taper_deg.to_radians().tan();
     let mut openings_cut = vec![Solid::cylinder([sprue_xy[0], sprue_xy[1], ze - 1.0], UP, w + 2.0, (rs - st).max(0.05), rs + (w + 1.0) * st, segments(rs + w * st, tol))];

@@ -229,6 +229,9 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
                     ),
                 );
             }
+            if t - pad_depth > 10.0 * pad_depth {
+                c.push("body.thickness_mm", t, format!("more than 11 times the pad depth {pad_depth:.2} mm: the dorsal side would be a needle; use at most {:.1} or a smaller pad_transverse_radius_mm", 11.0 * pad_depth));
+            }
             if rtip >= pad_depth {
                 c.push("body.tip_radius_mm", rtip, format!("must be smaller than the pad depth {pad_depth:.2} mm ((width/2)² / pad_transverse_radius)"));
             }
@@ -313,7 +316,7 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
     let hd = c.positive(m.hole_diameter_mm, "mount.hole_diameter_mm", "2.4");
     let holes = m.holes.clone().unwrap_or_default();
     for (i, h) in holes.iter().enumerate() {
-        if !h[0].is_finite() || !h[1].is_finite() {
+        if !h[0].is_finite() || !h[1].is_finite() || h[0].abs() > super::raw::MAX_LENGTH_MM || h[1].abs() > super::raw::MAX_LENGTH_MM {
             c.push(&format!("mount.holes[{i}]"), format!("{h:?}"), "hole positions must be finite [x_mm, y_mm] pairs");
         }
     }

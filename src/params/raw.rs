@@ -190,6 +190,10 @@ pub fn nearest<'a>(key: &str, known: &[&'a str]) -> Option<&'a str> {
         .map(|(_, k)| k)
 }
 
+/// Largest length (mm) any parameter may have: beyond it a value is a unit or typing mistake
+/// (and would make the geometry routines run out of memory).
+pub const MAX_LENGTH_MM: f64 = 1000.0;
+
 /// Collects validation problems for one file; helpers return the value when it is usable.
 pub struct Collector<'a> {
     pub src: &'a SourceFile,
@@ -207,6 +211,10 @@ impl<'a> Collector<'a> {
     /// A required number.
     pub fn req(&mut self, v: Option<f64>, path: &str, example: &str) -> Option<f64> {
         match v {
+            Some(x) if x.is_finite() && path.ends_with("_mm") && x.abs() > MAX_LENGTH_MM => {
+                self.push(path, x, format!("larger than any part tipforge makes ({MAX_LENGTH_MM} mm): check the units (millimetres), e.g. {example}"));
+                None
+            }
             Some(x) if x.is_finite() => Some(x),
             Some(x) => {
                 self.push(path, x, "must be a finite number");
