@@ -421,6 +421,158 @@ def polys_centroid_area_simple(p):
     return (((p[:, 0] + q[:, 0]) * cr).sum() / (6 * a), ((p[:, 1] + q[:, 1]) * cr).sum() / (6 * a)), a
 
 
+# ---------------------------------------------------------------- molds
+def affine(m):
+    """3x4 row matrix from the manifest to a manifold3d transform."""
+    return np.asarray(m, dtype=float)
+
+
+def mold_inputs(name, mold, man, root):
+    """The assembled pieces, the cavity, the cover and the fingertip of a conforming mold, as
+    manifolds in the mold's assembled frame, from the written STL files."""
+    fr = mold["frames"]
+    load = lambda part: to_manifold(trimesh.load(str(root / f"{part}.stl"), process=True))
+    core = load(mold["pieces"][0]).transform(affine(fr["core_print_to_assembled"]))
+    shell = load(mold["pieces"][1]).transform(affine(fr["shell_print_to_assembled"]))
+    cover = load(mold["cover"]).transform(affine(fr["cover_print_to_assembled"]))
+    tip = load(mold["fingertip_part"]).transform(affine(fr["fingertip_print_to_assembled"]))
+    return core, shell, cover, tip
+
+
+def grow(mf, k, center):
+    c = np.asarray(center, float)
+    return mf.translate(list(-c)).scale([k, k, k]).translate(list(c))
+
+
+def regions(mf, min_volume=1e-3):
+    return [p for p in mf.decompose() if p.volume() > min_volume]
+
+
+def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
+    """Rules of an assembled conforming mold, independent of tipforge's own checks."""
+    out = []
+    fail = lambda rule, val: out.append((f"{name}-assembly", rule, val))
+    fr = mold["frames"]
+    k = fr["cavity_scale"]
+    cavity = grow(cover, k, fr["cavity_scale_center"])
+    # pieces and cavity are disjoint
+    for what, a, b in (("core and shell", core, shell), ("core and cavity", core, cavity), ("shell and cavity", shell, cavity)):
+        v = (a ^ b).volume()
+        if v > 1e-3:
+            fail("assembled pieces must not intersect each other or the cavity", f"{what}: {v:.4f} mm3")
+    # the cavity is the cover grown by the shrinkage allowance
+    if abs(cavity.volume() / k ** 3 / cover.volume() - 1) > 1e-4:
+        fail("the cavity's volume must equal the cover's times the shrinkage allowance", f"{cavity.volume():.3f} vs {cover.volume():.3f} x {k ** 3:.5f}")
+    # one cavity, open only through the sprue and vents: the box less the pieces is the air inside
+    pieces = core + shell
+    b = pieces.bounding_box()
+    lo, hi = np.array(b[:3]), np.array(b[3:])
+    box = m3.Manifold.cube(list(hi - lo)).translate(list(lo))
+    air = regions(box - pieces)
+    cav_air = [r for r in air if (r ^ cavity).volume() > 0.5 * cavity.volume()]
+    if len(cav_air) != 1 or abs(cav_air[0].bounding_box()[5] - hi[2]) > 1e-3:
+        fail("the cavity must reach the outside through its openings", f"{len(cav_air)} air regions hold the cavity")
+    plugs = None
+    zp, zt = mold["parting_z_mm"], mold["flange_top_z_mm"]
+    for o in mold["openings"]:
+        r = o["radius_mm"] + (zt - zp + 2) * math.tan(math.radians(45)) + 0.2
+        c = m3.Manifold.cylinder(zt - zp + 3, r, r, 48).translate([o["xy"][0], o["xy"][1], zp])
+        plugs = c if plugs is None else plugs + c
+    sealed = regions(box - (pieces + plugs))
+    cav_sealed = [r for r in sealed if (r ^ cavity).volume() > 0.5 * cavity.volume()]
+    enclosed = cav_sealed[0].volume() if len(cav_sealed) == 1 else float("nan")
+    touches = len(cav_sealed) == 1 and any(abs(x - y) < 1e-3 for x, y in zip(cav_sealed[0].bounding_box(), b))
+    if len(cav_sealed) != 1 or touches or abs(enclosed / cavity.volume() - 1) > 2e-3:
+        fail("with the sprue and vents plugged the cavity must be closed", f"{len(cav_sealed)} regions, enclosed {enclosed:.3f} vs cavity {cavity.volume():.3f} mm3, touches the mold's outside: {touches}")
+    # the cover's inner surface lies on the fingertip: inner vertices (within half the thickness of
+    # the fingertip) away from the pockets, channels and domes are within 0.05 mm of it
+    t = mold["cover_thickness_mm"]
+    cm = trimesh.Trimesh(*_mesh_of(cover))
+    tm = trimesh.Trimesh(*_mesh_of(tip))
+    v = cm.vertices
+    keep = np.ones(len(v), bool)
+    for st in mold["seats_assembled"]:
+        rel = v - np.asarray(st["center"])
+        h = rel @ np.asarray(st["normal"])
+        radial = np.linalg.norm(rel - np.outer(h, st["normal"]), axis=1)
+        keep &= radial >= st["seat_diameter_mm"] / 2 + 0.05
+        path = np.asarray(st["channel_path_xy"])
+        band = st["channel_width_mm"] / 2 + 2 * st["channel_depth_mm"] + 0.2
+        for a2, b2 in zip(path[:-1], path[1:]):
+            d = b2 - a2
+            tt = np.clip(((v[:, :2] - a2) @ d) / (d @ d), 0, 1)
+            keep &= np.linalg.norm(v[:, :2] - a2 - np.outer(tt, d), axis=1) >= band
+    _, dist, _ = trimesh.proximity.closest_point(tm, v[keep])
+    inner = dist[dist < t / 2]
+    worst = float(inner.max()) if len(inner) else float("inf")
+    if not len(inner) or worst > 0.05:
+        fail("the cover's inner surface must lie on the fingertip within 0.05 mm", f"max {worst:.4f} mm over {len(inner)} vertices")
+    # the cover does not enter the fingertip; each dome fits its cavity
+    # both are tessellations inscribed in the same exact pad, so they may cross by the sum of their
+    # chordal tolerances, no more: fingertip vertices inside the cover must be that close to it
+    allow = tol_sum + 1e-3
+    inside = tm.vertices[cm.contains(tm.vertices)]
+    depth = float(trimesh.proximity.closest_point(cm, inside)[1].max()) if len(inside) else 0.0
+    if depth > allow:
+        fail("the cover must not enter the fingertip (beyond the chordal tolerances)", f"{depth:.4f} mm deep (allowed {allow:.3f})")
+    for i, d in enumerate(mold["domes_assembled"]):
+        r, h = d["dome_diameter_mm"] / 2, d["dome_height_mm"]
+        n = np.asarray(d["normal"], float)
+        t34, rot = frame_to_z(n, d["base"])
+        inv = np.hstack([rot.T, np.asarray(d["base"], float)[:, None]])
+        dome = m3.Manifold.cylinder(h, r, r, 96).transform(inv)
+        ov = (dome ^ cover).volume()
+        if ov > 1e-4:
+            fail("each sensor dome must fit its cavity", f"dome {i}: {ov:.5f} mm3 inside the cover")
+    # no undercut: every cavity face leans at least the draft from the opening direction and faces
+    # the piece that leaves that way (up: the core; down: the shell)
+    cav = trimesh.Trimesh(*_mesh_of(cavity))
+    nz = cav.face_normals[:, 2]
+    good = cav.area_faces > 1e-9
+    slope = np.degrees(np.arcsin(np.clip(np.abs(nz[good]), 0, 1))).min()
+    if slope + 0.02 < mold["draft_deg"]:  # float32 STL vertices tilt small faces by up to ~0.01 deg
+        fail("cavity walls must lean by the draft angle", f"steepest {slope:.3f} deg, draft {mold['draft_deg']} deg")
+    probes = cav.triangles_center + 0.02 * cav.face_normals
+    opening = np.zeros(len(probes), bool)
+    for o in mold["openings"]:
+        opening |= np.hypot(probes[:, 0] - o["xy"][0], probes[:, 1] - o["xy"][1]) < o["radius_mm"] + (zt - zp) + 0.05
+    opening &= (np.abs(cav.triangles_center[:, 2] - zp) < 1e-4) & (nz > 0.999)
+    core_m = trimesh.Trimesh(*_mesh_of(core))
+    shell_m = trimesh.Trimesh(*_mesh_of(shell))
+    up = (nz > 0) & good & ~opening
+    down = (nz < 0) & good
+    wrong = int((~core_m.contains(probes[up])).sum() + (~shell_m.contains(probes[down])).sum())
+    if wrong:
+        fail("each cavity face must belong to the piece that leaves in its direction (no undercut)", f"{wrong} of {int(up.sum() + down.sum())} faces")
+    print(f"{name}-assembly: {'ok' if not out else 'FAILED'} (cavity {cavity.volume():.2f} mm3 = cover x {k ** 3:.4f}; inner surface within {worst:.4f} mm; steepest wall {slope:.3f} deg)")
+    return out
+
+
+def mold_self_test(root):
+    """Each mold rule must fail on the real mold of ROOT made wrong on purpose."""
+    root = Path(root)
+    man = json.loads((root / "manifest.json").read_text())
+    results = {}
+    for name, mold in sorted(man.get("molds", {}).items()):
+        if mold.get("style") != "conforming":
+            continue
+        core, shell, cover, tip = mold_inputs(name, mold, man, root)
+        tols = mold["chordal_tolerance_mm"] + man["parts"][mold["fingertip_part"]]["features"]["chordal_tolerance_mm"]
+        fails = lambda *a: {r for _, r, _ in check_mold(name, mold, *a, tol_sum=tols)}
+        results[f"{name}: the real mold passes"] = not check_mold(name, mold, core, shell, cover, tip, tol_sum=tols)
+        results[f"{name}: a shell raised 0.3 mm intersects"] = any("intersect" in r for r in fails(core, shell.translate([0, 0, 0.3]), cover, tip))
+        lid = m3.Manifold.cube([200, 200, 1]).translate([-100, -100, mold["flange_top_z_mm"] - 0.5])
+        results[f"{name}: a lid over the sprue and vents traps the cavity"] = any("reach the outside" in r for r in fails(core + lid, shell, cover, tip))
+        results[f"{name}: a cover 2 % too large fails the volume and fit rules"] = len(fails(core, shell, grow(cover, 1.02, mold["frames"]["cavity_scale_center"]), tip)) >= 2
+        results[f"{name}: a cover lifted 0.2 mm off the fingertip fails the inner-surface rule"] = any("inner surface" in r for r in fails(core, shell, cover, tip.translate([0, 0, 0.2])))
+        mirrored = shell.mirror([0, 0, 1]).translate([0, 0, 2 * mold["parting_z_mm"]])
+        results[f"{name}: a shell flipped over fails"] = len(fails(core, mirrored, cover, tip)) >= 1
+    for k_, v_ in results.items():
+        print(f"{'ok  ' if v_ else 'FAIL'} {k_}")
+    print(f"{sum(results.values())} passed, {len(results) - sum(results.values())} failed")
+    return 0 if results and all(results.values()) else 1
+
+
 # ---------------------------------------------------------------- driver
 def load_3mf(path):
     if not path.exists():
@@ -468,6 +620,10 @@ def main(root):
         print(f"{name}: {'ok' if not f else 'FAILED'} ({len(RULES)} rules)")
     for name, rig in sorted(man.get("rigs", {}).items()):
         failures += check_rig(name, rig, man, root)
+    for name, mold in sorted(man.get("molds", {}).items()):
+        if mold.get("style") == "conforming":
+            tols = mold["chordal_tolerance_mm"] + man["parts"][mold["fingertip_part"]]["features"]["chordal_tolerance_mm"]
+            failures += check_mold(name, mold, *mold_inputs(name, mold, man, root), tol_sum=tols)
     for name, rule_text, value in failures:
         print(f"  {name}: {rule_text}: {value}")
     print(f"{len(parts) - len({f[0] for f in failures})} passed, {len({f[0] for f in failures})} failed")
@@ -528,4 +684,6 @@ def _mesh_of(mf):
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--self-test":
         sys.exit(self_test())
+    if len(sys.argv) > 2 and sys.argv[1] == "--mold-self-test":
+        sys.exit(mold_self_test(sys.argv[2]))
     sys.exit(main(sys.argv[1] if len(sys.argv) > 1 else "out"))

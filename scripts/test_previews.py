@@ -30,6 +30,7 @@ def main(root):
     root = Path(root)
     man = json.loads((root / "manifest.json").read_text())
     names = list(man["parts"]) + [Path(r["assembly"]).stem for r in man.get("rigs", {}).values()]
+    names += [Path(m["assembly"]).stem for m in man.get("molds", {}).values() if "assembly" in m]
     failed = 0
     for name in names:
         p = root / f"{name}.png"

@@ -242,6 +242,35 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("demolding".into(), json!("core lifts along the fingertip's +z (toward the nail), shell drops along -z; parting plane at the cover's edge"));
     entry.insert("parting_plane_z_mm".into(), json!(a.z_parting));
     entry.insert("checks".into(), measured);
+    entry.insert("assembly".into(), json!(format!("{name}-assembly.3mf")));
+    // what an independent check needs to reassemble the mold from the written files
+    entry.insert(
+        "frames".into(),
+        json!({
+            "core_print_to_assembled": [[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]],
+            "shell_print_to_assembled": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]],
+            "cover_print_to_assembled": [[0, 0, 1, 0], [1, 0, 0, 0], [0, 1, 0, 0]],
+            "fingertip_print_to_assembled": [[0, 0, 1, 0], [1, 0, 0, 0], [0, 1, 0, 0]],
+            "cavity_scale": a.k,
+            "cavity_scale_center": a.scale_center,
+        }),
+    );
+    entry.insert("fingertip_part".into(), json!(p.fingertip.name));
+    entry.insert("parting_z_mm".into(), json!(a.z_parting));
+    entry.insert("flange_top_z_mm".into(), json!(a.z_top));
+    entry.insert("key_clearance_mm".into(), json!(p.mold.key_clearance_mm));
+    entry.insert("draft_deg".into(), json!(p.mold.draft_deg));
+    entry.insert("openings".into(), json!(std::iter::once(a.sprue).chain(a.vents.iter().copied()).map(|(xy, r)| json!({"xy": xy, "radius_mm": r})).collect::<Vec<_>>()));
+    entry.insert(
+        "domes_assembled".into(),
+        json!(l.domes.iter().map(|d| json!({"base": d.base, "normal": d.normal, "dome_diameter_mm": 2.0 * d.dome_r, "dome_height_mm": d.depth, "cavity_radius_mm": d.r_base})).collect::<Vec<_>>()),
+    );
+    entry.insert(
+        "seats_assembled".into(),
+        json!(l.seats.iter().zip(&p.fingertip.sensors).map(|(st, s)| json!({"center": st.flat_center, "normal": st.normal, "seat_diameter_mm": s.seat_diameter_mm, "channel_width_mm": s.channel_width_mm, "channel_depth_mm": s.channel_depth_mm, "channel_path_xy": fingertip::channel_path(&l.shape, s)})).collect::<Vec<_>>()),
+    );
+    entry.insert("cover_thickness_mm".into(), json!(p.cover.thickness_mm));
+    entry.insert("chordal_tolerance_mm".into(), json!(p.mold.chordal_tolerance_mm));
     manifest.insert(name.to_string(), serde_json::Value::Object(entry));
     Ok(MoldBuild { parts: vec![core, shell, cover], assemblies: vec![assembly], violations, manifest, notes: notes(name, &mat) })
 }
