@@ -129,7 +129,7 @@ fn random_parameter_sets_build_valid_meshes_or_clear_errors() {
 #[test]
 fn corrupted_files_never_panic() {
     let base = std::fs::read_to_string("params/fingertip-2s.toml").unwrap();
-    let mut runner = TestRunner::new(Config { cases: 300, failure_persistence: None, ..Config::default() });
+    let mut runner = TestRunner::new_with_rng(Config { cases: 300, failure_persistence: None, ..Config::default() }, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
     runner
         .run(&(0usize..base.len(), prop::sample::select(vec!["-", "0", "1e9", "nan", "\"x\"", "[", "=", "\n[[sensor]]\n", ""]), 0usize..40), |(at, ins, del)| {
             let mut t = base.clone();

@@ -262,6 +262,46 @@ impl Shape {
                 }
             }
         }
+        // near the tip the (x, phi) parametrisation degenerates at the apex: also search the tip
+        // sphere in coordinates whose poles lie sideways (the apex is a regular point there)
+        if bx > self.tp.0 - 0.5 {
+            let rt = self.r_tip;
+            let on_tip = |a: f64, b: f64| -> Option<P3> {
+                let q = [self.c2.0 + rt * a.cos() * b.cos(), rt * b.sin(), rt * a.sin() * b.cos()];
+                (q[0] >= self.tp.0).then(|| [q[0], q[1] * self.lateral, q[2] * self.zscale(q[2])])
+            };
+            let d2t = |a: f64, b: f64| {
+                on_tip(a, b).map_or(f64::INFINITY, |q| {
+                    let o = mesh::add(q, mesh::scale(self.normal_at(q), t));
+                    mesh::dot(mesh::sub(o, p), mesh::sub(o, p))
+                })
+            };
+            let (mut ba, mut bb, mut bt) = (0.0, 0.0, f64::INFINITY);
+            for i in -20..=20 {
+                for j in -20..=20 {
+                    let (a, b) = (i as f64 * 0.075, j as f64 * 0.075);
+                    let v = d2t(a, b);
+                    if v < bt {
+                        (ba, bb, bt) = (a, b, v);
+                    }
+                }
+            }
+            let mut st = 0.075;
+            while st > 1e-10 {
+                let mut improved = false;
+                for (da, db) in [(st, 0.0), (-st, 0.0), (0.0, st), (0.0, -st)] {
+                    let v = d2t(ba + da, bb + db);
+                    if v < bt {
+                        (ba, bb, bt) = (ba + da, bb + db, v);
+                        improved = true;
+                    }
+                }
+                if !improved {
+                    st /= 2.0;
+                }
+            }
+            best = best.min(bt);
+        }
         best.sqrt()
     }
 

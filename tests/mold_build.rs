@@ -1,0 +1,190 @@
+//! PDMS cover molds: the exact offset surface, the default molds and their checks, checks that fire
+//! on broken assemblies, every validation rule through the CLI, the material estimate.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use tipforge::error::Error;
+use tipforge::mesh::{self, P3};
+use tipforge::mold::{self, checks, conforming};
+use tipforge::params::{mold::MoldParams, read_source};
+
+fn load(name: &str) -> MoldParams {
+    let src = read_source(Path::new(&format!("params/{name}.toml"))).unwrap();
+    MoldParams::from_source(&src, name, Path::new("params")).unwrap()
+}
+
+#[test]
+fn offset_surface_is_the_exact_offset_within_tolerance() {
+    let p = load("mold-1s");
+    let shape = tipforge::fingertip::Shape::new(&p.fingertip.body);
+    let (t, tol) = (1.5, 0.02);
+    let m = shape.offset_mesh(t, tol, "test").unwrap();
+    // closed and outward
+    let s = tipforge::mesh::Solid::from_mesh(&m, "offset").unwrap();
+    assert!(s.volume() > 0.0 && s.genus() == 0);
+    // vertices on the exact offset surface (every 7th, away from the planar mount face)
+    let mut worst_v: f64 = 0.0;
+    for v in m.vertices.iter().step_by(7).filter(|v| v[0] > 0.05) {
+        worst_v = worst_v.max(shape.offset_distance(*v, t));
+    }
+    assert!(worst_v < 1e-4, "vertex off the offset surface by {worst_v}");
+    // triangle centroids within the chordal tolerance, and not trivially so
+    let mut worst_c: f64 = 0.0;
+    for tri in m.triangles.iter().step_by(5) {
+        let c: P3 = mesh::scale(tri.iter().fold([0.0; 3], |a, &i| mesh::add(a, m.vertices[i as usize])), 1.0 / 3.0);
+        if c[0] < 0.05 {
+            continue;
+        }
+        worst_c = worst_c.max(shape.offset_distance(c, t));
+    }
+    assert!(worst_c <= tol * 1.05, "centroid {worst_c} mm off the offset surface (tolerance {tol})");
+    assert!(worst_c > tol * 0.2, "deviation {worst_c} suspiciously small: the test measures nothing");
+}
+
+#[test]
+fn default_molds_build_and_pass_their_checks() {
+    for name in ["mold-1s", "mold-2s"] {
+        let p = load(name);
+        let b = mold::build(&p).unwrap();
+        assert!(b.violations.is_empty(), "{name}: {:?}", b.violations);
+        assert_eq!(b.parts.len(), 3);
+        for part in &b.parts {
+            assert!(tipforge::checks::run(part).is_empty(), "{}: {:?}", part.name, tipforge::checks::run(part));
+        }
+        let entry = &b.manifest[name];
+        let c = &entry["checks"];
+        let cover = c["cover_volume_mm3"].as_f64().unwrap();
+        let cavity = c["cavity_volume_mm3"].as_f64().unwrap();
+        assert!((cavity / cover - 1.01f64.powi(3)).abs() < 1e-6, "cavity {cavity} cover {cover}");
+        assert!(c["inner_surface_max_gap_mm"].as_f64().unwrap() <= 0.05);
+        assert!(c["inner_surface_faces_checked"].as_u64().unwrap() > 500);
+        for h in c["hump_over_dome_mm"].as_array().unwrap() {
+            assert!(h.as_f64().unwrap() <= 0.05);
+        }
+        for g in c["key_gaps_mm"].as_array().unwrap() {
+            assert!((g.as_f64().unwrap() - 0.2).abs() < 0.01, "key gap {g}");
+        }
+        // a thin, conforming cover: volume about the pad area times the thickness
+        assert!(cover > 300.0 && cover < 1500.0, "{cover}");
+        let mat = &entry["material"];
+        let mass = mat["pdms_mass_g"].as_f64().unwrap();
+        assert!((mass - cover / 1000.0 * 1.03).abs() < 1e-9);
+        let (base, agent) = (mat["sylgard_base_g"].as_f64().unwrap(), mat["curing_agent_g"].as_f64().unwrap());
+        assert!((base / agent - 10.0).abs() < 1e-9 && ((base + agent) / mass - 1.25).abs() < 1e-9);
+        assert!((mat["youngs_modulus_mpa_estimate"].as_f64().unwrap() - 2.0).abs() < 1e-12);
+        assert!(b.notes.iter().any(|n| n.contains("Sylgard 184 base")));
+    }
+}
+
+#[test]
+fn checks_fire_on_broken_assemblies() {
+    let p = load("mold-1s");
+    let (l, a) = conforming::assemble(&p).unwrap();
+    let rules = |a: &conforming::Assembled| checks::conforming(&p, &l, a).0.into_iter().map(|v| v.rule).collect::<Vec<_>>();
+    assert!(rules(&a).is_empty());
+    // the shell pushed up into the core
+    let mut b = conforming::assemble(&p).unwrap().1;
+    b.shell = b.shell.translate([0.0, 0.0, 0.3]);
+    assert!(rules(&b).iter().any(|r| r.contains("must not intersect")), "{:?}", rules(&b));
+    // a core whose flange has no openings: the cavity is trapped
+    let mut c = conforming::assemble(&p).unwrap().1;
+    let (lo, hi) = c.bounds;
+    c.core = c.core.union(&tipforge::mesh::Solid::cuboid([lo[0], lo[1], c.z_parting + 0.5], [hi[0], hi[1], c.z_top]));
+    let r = rules(&c);
+    assert!(r.iter().any(|r| r.contains("reach the outside")) && r.iter().any(|r| r.contains("open straight into")), "{r:?}");
+    // a cover grown 3 %: it no longer matches the cavity
+    let mut d = conforming::assemble(&p).unwrap().1;
+    d.cover = d.cover.scale_about(1.03, d.scale_center);
+    assert!(rules(&d).iter().any(|r| r.contains("volume must equal")), "{:?}", rules(&d));
+}
+
+#[test]
+fn flat_mold_develops_the_pad() {
+    let p = load("mold-flat");
+    let l = mold::layout(&p).unwrap();
+    let (len, wid, at) = mold::flat::developed(&l);
+    // the developed length is at least the covered run along the finger, the width at least the
+    // pad's chord at the parting plane
+    let s = &l.shape;
+    let chord = 2.0 * s.lateral * (s.pad_depth.powi(2) - l.z_parting.powi(2)).sqrt();
+    assert!(len > p.cover.from_tip_mm - 2.0 && len < p.cover.from_tip_mm + 5.0, "{len}");
+    assert!(wid > chord && wid < 1.6 * chord, "{wid} vs chord {chord}");
+    assert_eq!(at.len(), 1);
+    assert!(at[0][0] > 0.0 && at[0][0] < len && at[0][1].abs() < 1e-9);
+    let b = mold::build(&p).unwrap();
+    assert!(b.violations.is_empty(), "{:?}", b.violations);
+    assert!(b.parts.iter().all(|part| tipforge::checks::run(part).is_empty()));
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("tipforge-mold-{}-{}", name, std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(d.join("params")).unwrap();
+    std::fs::copy("params/fingertip-1s.toml", d.join("params/fingertip-1s.toml")).unwrap();
+    d
+}
+
+fn run(d: &Path, mold_text: &str) -> (i32, String) {
+    std::fs::write(d.join("params/mold-x.toml"), mold_text).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_tipforge")).args(["build", "mold-x", "--params"]).arg(d.join("params")).arg("--out").arg(d.join("out")).output().unwrap();
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(!text.contains("panicked"), "{text}");
+    (o.status.code().unwrap_or(-1), text)
+}
+
+#[test]
+fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
+    let base = std::fs::read_to_string("params/mold-1s.toml").unwrap();
+    let d = dir("rules");
+    let cases: &[(&str, &str, &str)] = &[
+        ("thickness_mm = 1.5 ", "thickness_mm = 0.2 ", "thinner than printable detail"),
+        ("dome_clearance_mm = 0.3 ", "dome_clearance_mm = 0.0 ", "narrower than the 8.0 mm dome"),
+        ("key_height_mm = 3.0", "key_height_mm = 12.0", "key holes"),
+        ("sprue_taper_deg = 15.0", "sprue_taper_deg = 15.0\nsprue_xy_mm = [2.0, 0.0]", "the sprue is outside the cavity"),
+        ("from_tip_mm = 20.0 ", "from_tip_mm = 26.0 ", "too close to the mount face"),
+        ("from_tip_mm = 20.0 ", "from_tip_mm = 11.0 ", "flat seat reaches"),
+        ("parting_below_midplane_mm = 1.0", "parting_below_midplane_mm = 0.0", "less than the draft"),
+        ("parting_below_midplane_mm = 1.0", "parting_below_midplane_mm = 5.0", "inside the pad"),
+        ("vent_diameter_mm = 0.8", "vent_diameter_mm = 1.6", "wider than the cavity's rim"),
+        ("material = \"PLA\"", "material = \"ABS\"", "mold.material"),
+        ("style = \"conforming\"", "style = \"wavy\"", "style = \"wavy\""),
+        ("fingertip = \"fingertip-1s.toml\"", "fingertip = \"nope.toml\"", "cannot read"),
+        ("[mold]", "[mold]\nkey_diameter = 4.0", "did you mean `key_diameter_mm`"),
+    ];
+    for (from, to, needle) in cases {
+        assert!(base.contains(from), "{from}");
+        let (code, text) = run(&d, &base.replacen(from, to, 1));
+        assert_eq!(code, 2, "{to}: {text}");
+        assert!(text.contains(needle), "{to}: missing {needle:?} in\n{text}");
+        assert!(text.contains("mold-x.toml:") || text.contains("fingertip"), "{text}");
+        assert!(!d.join("out").exists(), "nothing may be written");
+    }
+    // several problems at once
+    let t = base.replacen("thickness_mm = 1.5 ", "thickness_mm = 0.01 ", 1).replacen("vent_diameter_mm = 0.8", "vent_diameter_mm = 9", 1).replacen("key_count = 3", "key_count = 7", 1);
+    let (code, text) = run(&d, &t);
+    assert_eq!(code, 2);
+    for needle in ["cover.thickness_mm", "mold.vent_diameter_mm", "mold.key_count"] {
+        assert!(text.contains(needle), "missing {needle} in\n{text}");
+    }
+    // a dome taller than the cover over its seat breaks through it
+    let tip = std::fs::read_to_string("params/fingertip-1s.toml").unwrap();
+    std::fs::write(d.join("params/fingertip-1s.toml"), tip.replacen("dome_height_mm = 1.0", "dome_height_mm = 2.6", 1)).unwrap();
+    let (code, text) = run(&d, &base);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("breaks through") && text.contains("cover.thickness_mm"), "{text}");
+    std::fs::write(d.join("params/fingertip-1s.toml"), tip).unwrap();
+    // the default file builds
+    let (code, text) = run(&d, &base);
+    assert_eq!(code, 0, "{text}");
+    assert!(d.join("out/mold-x-core.stl").exists() && d.join("out/cover-x.stl").exists());
+}
+
+#[test]
+fn a_mold_without_its_fingertip_is_an_input_error() {
+    let src = tipforge::params::SourceFile::parse("m.toml", "kind = \"mold\"\n".into()).unwrap();
+    match MoldParams::from_source(&src, "m", Path::new("params")) {
+        Err(Error::Input(p)) => assert!(p.0.iter().any(|x| x.path == "fingertip")),
+        other => panic!("{:?}", other.map(|_| ())),
+    }
+}
+
