@@ -1,6 +1,7 @@
 //! `cargo bench --bench build`: median wall time to build the default parts from their parameter
 //! files (parse, validate, model, boolean, mesh, checks; no file writing), at the chordal
-//! tolerance in the files (0.01 mm by default).
+//! tolerance in the files (0.01 mm by default; molds 0.02 mm). A mold's time includes its assembled-
+//! mold checks (intersection, enclosure, fit, draft), which run before anything is written.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -13,7 +14,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 fn main() {
     let runs: usize = std::env::var("TIPFORGE_BENCH_RUNS").ok().and_then(|s| s.parse().ok()).unwrap_or(15);
-    let groups: Vec<(&str, Vec<String>)> = vec![("both fingertips", vec!["fingertip-1s".into(), "fingertip-2s".into()]), ("calibration rig", vec!["rig".into()])];
+    let groups: Vec<(&str, Vec<String>)> = vec![("both fingertips", vec!["fingertip-1s".into(), "fingertip-2s".into()]), ("calibration rig", vec!["rig".into()]),
+        ("both conforming molds", vec!["mold-1s".into(), "mold-2s".into()]),
+        ("flat mold", vec!["mold-flat".into()]),
+    ];
     println!("{:<28} {:>6} {:>12} {:>12} {:>12}", "group", "runs", "median ms", "min ms", "max ms");
     for (label, only) in groups {
         let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only, preview: false };
@@ -33,4 +37,22 @@ fn main() {
         let (mn, mx) = (times.iter().cloned().fold(f64::INFINITY, f64::min), times.iter().cloned().fold(0.0, f64::max));
         println!("{:<28} {:>6} {:>12.1} {:>12.1} {:>12.1}", label, runs, median(times), mn, mx);
     }
+    // the molds' geometry alone (no checks), to show where the time goes
+    let mut times = Vec::new();
+    let molds: Vec<_> = ["mold-1s", "mold-2s"]
+        .iter()
+        .map(|n| {
+            let src = tipforge::params::read_source(std::path::Path::new(&format!("params/{n}.toml"))).unwrap();
+            tipforge::params::mold::MoldParams::from_source(&src, n, std::path::Path::new("params")).unwrap()
+        })
+        .collect();
+    for _ in 0..runs {
+        let t0 = Instant::now();
+        for m in &molds {
+            tipforge::mold::conforming::assemble(m).expect("mold");
+        }
+        times.push(t0.elapsed().as_secs_f64() * 1000.0);
+    }
+    let (mn, mx) = (times.iter().cloned().fold(f64::INFINITY, f64::min), times.iter().cloned().fold(0.0, f64::max));
+    println!("{:<28} {:>6} {:>12.1} {:>12.1} {:>12.1}", "molds, geometry only", runs, median(times), mn, mx);
 }
