@@ -14,6 +14,11 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 fn main() {
     let runs: usize = std::env::var("TIPFORGE_BENCH_RUNS").ok().and_then(|s| s.parse().ok()).unwrap_or(15);
+    // `TIPFORGE_BENCH_ONLY=<stem>`: one parameter file alone (scripts/bench-peers);
+    // `rig-plunger`: the rig's plunger alone, modelled and meshed in its print pose
+    if let Ok(only) = std::env::var("TIPFORGE_BENCH_ONLY") {
+        return single(&only, runs);
+    }
     let groups: Vec<(&str, Vec<String>)> = vec![("both fingertips", vec!["fingertip-1s".into(), "fingertip-2s".into()]), ("calibration rig", vec!["rig".into()]),
         ("both conforming molds", vec!["mold-1s".into(), "mold-2s".into()]),
         ("flat mold", vec!["mold-flat".into()]),
@@ -55,4 +60,32 @@ fn main() {
     }
     let (mn, mx) = (times.iter().cloned().fold(f64::INFINITY, f64::min), times.iter().cloned().fold(0.0, f64::max));
     println!("{:<28} {:>6} {:>12.1} {:>12.1} {:>12.1}", "molds, geometry only", runs, median(times), mn, mx);
+}
+
+fn single(only: &str, runs: usize) {
+    let mut times = Vec::new();
+    if only == "rig-plunger" {
+        let src = tipforge::params::read_source(std::path::Path::new("params/rig.toml")).unwrap();
+        let p = tipforge::params::rig::RigParams::from_source(&src, "rig").unwrap();
+        for _ in 0..runs {
+            let t0 = Instant::now();
+            let m = tipforge::rig::plunger_print(&p).to_mesh();
+            assert!(!m.triangles.is_empty());
+            times.push(t0.elapsed().as_secs_f64() * 1000.0);
+        }
+    } else {
+        let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![only.to_string()], preview: false };
+        for _ in 0..runs {
+            let t0 = Instant::now();
+            let (loaded, _) = load_all(&opts).expect("params load");
+            for l in &loaded {
+                let built = build_job(&l.job).expect("build");
+                for p in &built.parts {
+                    assert!(tipforge::checks::run(p).is_empty());
+                }
+            }
+            times.push(t0.elapsed().as_secs_f64() * 1000.0);
+        }
+    }
+    println!("{only} {runs} {:.2}", median(times));
 }

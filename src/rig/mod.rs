@@ -174,6 +174,12 @@ pub struct Built {
     pub manifest: Map<String, Value>,
 }
 
+/// The plunger alone in its print pose (what the peer benchmark compares).
+pub fn plunger_print(p: &RigParams) -> Solid {
+    let l = layout(p);
+    plunger_to_print(&plunger_solid(p, &l), &l)
+}
+
 pub fn build(p: &RigParams) -> Result<Built> {
     let l = layout(p);
     let base = base_solid(p, &l);
