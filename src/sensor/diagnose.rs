@@ -100,6 +100,21 @@ struct Config {
     effects: Vec<Effect>,
     tau2: f64,
     clip: Option<f64>,
+    /// With a clip: the time constant and onset of each step the clip shapes, as
+    /// ((trial, segment), τ, onset). The clipped shape biases those steps' own first-order fits.
+    tau_fixed: Vec<((usize, usize), f64, f64)>,
+}
+
+impl Config {
+    fn fixed(&self, i: usize, s: usize) -> Option<&((usize, usize), f64, f64)> {
+        self.tau_fixed.iter().find(|x| x.0 == (i, s))
+    }
+    fn tau_of(&self, i: usize, s: usize, sg: &Seg) -> f64 {
+        self.fixed(i, s).map(|x| x.1).unwrap_or(sg.tau)
+    }
+    fn t0_of(&self, i: usize, s: usize, sg: &Seg) -> f64 {
+        self.fixed(i, s).map(|x| x.2).unwrap_or(sg.t0)
+    }
 }
 
 /// Baseline quantities the terms are built from (two-stage: fixed from the baseline fit).
@@ -140,10 +155,10 @@ impl Design {
         out[i] = 1.0;
         let base = self.n_trials;
         // level columns: loads[0] is the reference level (absorbed by o_i)
-        let active: Vec<usize> = (0..tr.segs.len()).filter(|&s| t >= tr.segs[s].t0).collect();
+        let active: Vec<usize> = (0..tr.segs.len()).filter(|&s| t >= cfg.t0_of(i, s, &tr.segs[s])).collect();
         for &s in active.iter().filter(|_| !self.prior) {
             let sg = &tr.segs[s];
-            let u = 1.0 - (-(t - sg.t0) / sg.tau).exp();
+            let u = 1.0 - (-(t - cfg.t0_of(i, s, sg)) / cfg.tau_of(i, s, sg)).exp();
             if let Some(c) = self.loads.iter().position(|&x| x == sg.load).filter(|&c| c > 0) {
                 out[base + c - 1] += u;
             }
@@ -156,6 +171,9 @@ impl Design {
         if cfg.tau_free && !self.prior {
             for &s in &active {
                 let sg = &tr.segs[s];
+                if cfg.fixed(i, s).is_some() {
+                    continue;
+                }
                 let x = (t - sg.t0) / sg.tau;
                 out[col + sg.key] += (hat.level_of(sg.load) - hat.level_of(sg.prev)) * x * (-x).exp();
             }
@@ -172,9 +190,9 @@ impl Design {
                         let mut carry = 0.0;
                         for q in 0..=s {
                             let sg = &tr.segs[q];
-                            let end = if q == s { t } else { tr.segs[q + 1].t0 };
-                            let since = end - sg.t0;
-                            carry = carry * (-since / sg.tau).exp() + (hat.level_of(sg.load) - l0) * (1.0 + since / 1.0).log10();
+                            let end = if q == s { t } else { cfg.t0_of(i, q + 1, &tr.segs[q + 1]) };
+                            let since = end - cfg.t0_of(i, q, sg);
+                            carry = carry * (-since / cfg.tau_of(i, q, sg)).exp() + (hat.level_of(sg.load) - l0) * (1.0 + since / 1.0).log10();
                         }
                         carry
                     }
@@ -185,7 +203,7 @@ impl Design {
                     match cur {
                         Some(s) => {
                             let prev = if s > 0 { h(s - 1) } else { 0.0 };
-                            h(s) + (prev - h(s)) * (-(t - tr.segs[s].t0) / tr.segs[s].tau).exp()
+                            h(s) + (prev - h(s)) * (-(t - cfg.t0_of(i, s, &tr.segs[s])) / cfg.tau_of(i, s, &tr.segs[s])).exp()
                         }
                         None => 0.0,
                     }
@@ -195,7 +213,8 @@ impl Design {
                     .map(|&s| {
                         let sg = &tr.segs[s];
                         let dv = hat.level_of(sg.load) - hat.level_of(sg.prev);
-                        dv * ((-(t - sg.t0) / sg.tau).exp() - (-(t - sg.t0) / cfg.tau2).exp())
+                        let t0 = cfg.t0_of(i, s, sg);
+                        dv * ((-(t - t0) / cfg.tau_of(i, s, sg)).exp() - (-(t - t0) / cfg.tau2).exp())
                     })
                     .sum(),
                 Effect::BaselineDrift => t - tr.t[0],
@@ -263,6 +282,9 @@ pub struct Score {
     /// Held-out squared error per unit (trial × step segment, or step segment), for paired tests.
     #[serde(skip)]
     pub units: Vec<f64>,
+    /// The (trial, segment) of each unit, in the order of `units`.
+    #[serde(skip)]
+    pub unit_keys: Vec<(usize, usize)>,
 }
 
 fn all_rows(trials: &[Trial]) -> Vec<(usize, usize)> {
@@ -326,7 +348,8 @@ fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score
             }
         }
     }
-    Some((Score { rmse: (rss / n.max(1) as f64).sqrt(), heldout_rmse: (hss / hn.max(1) as f64).sqrt(), bic, params: p, units: units.into_values().collect() }, x))
+    let unit_keys = units.keys().copied().collect();
+    Some((Score { rmse: (rss / n.max(1) as f64).sqrt(), heldout_rmse: (hss / hn.max(1) as f64).sqrt(), bic, params: p, units: units.into_values().collect(), unit_keys }, x))
 }
 
 /// Paired z statistic of the held-out improvement over units (positive: the candidate predicts
@@ -450,6 +473,134 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording]) -> Vec<Tria
     out
 }
 
+/// Paired z over the units listed in `only` (all units when it is empty). With fewer than three
+/// such units a z cannot be formed: every one of them must then at least halve its error, which
+/// counts as passing (MIN_Z), else 0.
+fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]) -> f64 {
+    if only.is_empty() {
+        return paired_z(&before.units, &after.units);
+    }
+    let pick = |s: &Score| -> Vec<f64> { s.unit_keys.iter().zip(&s.units).filter(|(k, _)| only.contains(k)).map(|(_, v)| *v).collect() };
+    let (b, a) = (pick(before), pick(after));
+    if b.len() < 3 {
+        return if !b.is_empty() && b.iter().zip(&a).all(|(x, y)| *y <= 0.5 * x) { MIN_Z } else { 0.0 };
+    }
+    paired_z(&b, &a)
+}
+
+/// The steps a clip shapes, per (trial, segment): those rising into it ("into") and those
+/// starting from a clipped load ("from"), and the (trial, segment) units where a clip's evidence
+/// lies (units count segments from 1).
+fn clipped_segments(trials: &[Trial], clip: f64) -> (Vec<(usize, usize)>, Vec<(usize, usize)>, Vec<(usize, usize)>) {
+    let (mut into, mut from) = (Vec::new(), Vec::new());
+    for (k, tr) in trials.iter().enumerate() {
+        let at = 0.25 * tr.sigma.max(1e-12);
+        let mut prev_clipped = false;
+        for (s, sg) in tr.segs.iter().enumerate() {
+            let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+            let reaches = tr.t.iter().zip(&tr.v).any(|(&t, &v)| t >= sg.t0 && t < end && v >= clip - at);
+            if prev_clipped && sg.load < sg.prev {
+                from.push((k, s));
+            } else if reaches {
+                into.push((k, s));
+            }
+            prev_clipped = reaches;
+        }
+    }
+    // the evidence: the rising steps, whose shape the clip changes (the falling steps' onsets are
+    // moved so the clip leaves them as they were)
+    let units = into.iter().map(|&(k, s)| (k, s + 1)).collect();
+    (into, from, units)
+}
+
+/// τ of the other steps as a straight line in the load (least squares), as the first-order
+/// model's τ(F) is; None with fewer than two other steps.
+fn tau_line(trials: &[Trial], skip: &[(usize, usize)]) -> Option<(f64, f64)> {
+    let free: Vec<(f64, f64)> = trials.iter().enumerate().flat_map(|(k, tr)| tr.segs.iter().enumerate().filter(move |(s, _)| !skip.contains(&(k, *s))).map(|(_, sg)| (sg.load, sg.tau))).filter(|p| p.1 > 0.0).collect();
+    if free.len() < 2 {
+        return None;
+    }
+    let n = free.len() as f64;
+    let (mx, my) = (free.iter().map(|p| p.0).sum::<f64>() / n, free.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = free.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let b = if sxx > 0.0 { free.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx } else { 0.0 };
+    Some((my - b * mx, b))
+}
+
+/// The onset of a step rising into the clip with time constant `tau`: a local first-order fit
+/// (offset and amplitude free) to its samples below the clip, over a grid of onsets around the
+/// part-1 onset.
+fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
+    let sg = &tr.segs[s];
+    let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+    let pts: Vec<(f64, f64)> = tr.t.iter().zip(&tr.v).filter(|(&t, &v)| t >= sg.t0 - 1.0 && t < end && v < clip - 0.5 * tr.sigma.max(1e-12)).map(|(&t, &v)| (t, v)).collect();
+    let mut best = (f64::INFINITY, sg.t0);
+    for g in 0..=120 {
+        let t0 = sg.t0 - 0.8 + 0.01 * g as f64;
+        // v = a + b·u(t), u = 1 − e^(−(t − t0)/τ) after t0, 0 before: linear least squares in (a, b)
+        let (mut s_u, mut s_uu, mut s_v, mut s_uv, mut s_vv) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for &(t, v) in &pts {
+            let u = if t > t0 { 1.0 - (-(t - t0) / tau).exp() } else { 0.0 };
+            s_u += u;
+            s_uu += u * u;
+            s_v += v;
+            s_uv += u * v;
+            s_vv += v * v;
+        }
+        let n = pts.len() as f64;
+        let det = n * s_uu - s_u * s_u;
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let b = (n * s_uv - s_u * s_v) / det;
+        let a = (s_v - b * s_u) / n;
+        let rss = s_vv - a * s_v - b * s_uv;
+        if rss < best.0 {
+            best = (rss, t0);
+        }
+    }
+    best.1
+}
+
+/// Time constants and onsets of the steps a clip shapes. Rising into it: τ from the other steps'
+/// τ line, onset from a local fit below the clip. Falling from it: the part-1 fit saw a first-order
+/// fall starting at the clip (τ unbiased, onset late by the time the true signal took to fall from
+/// its level to the clip), so the onset moves back by τ·ln((L_top − L_next)/(clip − L_next)) with
+/// the levels of a first clipped fit.
+fn clip_fixes(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, into: &[(usize, usize)], from: &[(usize, usize)]) -> Vec<((usize, usize), f64, f64)> {
+    let Some(clip) = cfg.clip else { return vec![] };
+    let Some((a, b)) = tau_line(trials, &[into, from].concat()) else { return vec![] };
+    let mut fixes: Vec<((usize, usize), f64, f64)> = into
+        .iter()
+        .map(|&(k, s)| {
+            let tau = (a + b * trials[k].segs[s].load).max(1e-3);
+            ((k, s), tau, rising_onset(&trials[k], s, tau, clip))
+        })
+        .collect();
+    // the falling steps' onsets depend on the top level, which they in turn pull on: iterate
+    let n_into = fixes.len();
+    for _ in 0..4 {
+        let mut c = cfg.clone();
+        c.tau_fixed = fixes.clone();
+        let Some(x) = solve(d, trials, &all_rows(trials), &c, hat) else { break };
+        let level = |k: usize, load: f64| -> f64 {
+            let mut v = x[k];
+            if let Some(ci) = d.loads.iter().position(|&l| l == load).filter(|&ci| ci > 0) {
+                v += x[d.n_trials + ci - 1];
+            }
+            v
+        };
+        fixes.truncate(n_into);
+        for &(k, s) in from {
+            let sg = &trials[k].segs[s];
+            let (top, next) = (level(k, sg.prev), level(k, sg.load));
+            let delay = if top > clip && clip > next { sg.tau * ((top - next) / (clip - next)).ln() } else { 0.0 };
+            fixes.push(((k, s), sg.tau, sg.t0 - delay));
+        }
+    }
+    fixes
+}
+
 fn clip_level(trials: &[Trial]) -> Option<f64> {
     let vmax = trials.iter().flat_map(|t| t.v.iter().copied()).fold(f64::NEG_INFINITY, f64::max);
     let sigma = trials.iter().map(|t| t.sigma).fold(0.0, f64::max).max(1e-12);
@@ -531,7 +682,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             Hat { loads: loads.clone(), level }
         }
         None => {
-            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, clip: None };
+            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, clip: None, tau_fixed: vec![] };
             let rows = all_rows(&trials);
             let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
             let mut level = vec![0.0];
@@ -541,9 +692,13 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     };
     let hat0 = hat.clone();
     // the baseline: first-order steps with their levels and time constants refitted jointly
-    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, clip: None };
+    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, clip: None, tau_fixed: vec![] };
     let (base, xb) = score(&d, &trials, &base_cfg, &hat)?;
     let clip = clip_level(&trials);
+    let (clip_into, clip_from, clipped_units) = match clip {
+        Some(c) => clipped_segments(&trials, c),
+        None => (vec![], vec![], vec![]),
+    };
     let med_tau = {
         let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
         super::preprocess::median(&mut t)
@@ -569,6 +724,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
                     let mut c = cur.clone();
                     c.effects.push(e);
                     c.clip = clip;
+                    c.tau_fixed = clip_fixes(&d, &trials, &c, &hat, &clip_into, &clip_from);
                     vec![c]
                 }
                 _ => {
@@ -589,7 +745,8 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             let Some((c, s, x)) = pick else { continue };
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
             let dbic = s.bic - cur_score.bic;
-            let z = paired_z(&cur_score.units, &s.units);
+            // a clip can only change the units that reach it: its evidence is tested there
+            let z = if e == Effect::Saturation { paired_z_on(&cur_score, &s, &clipped_units) } else { paired_z(&cur_score.units, &s.units) };
             decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
             if gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
                 best = Some((e, c, s, x));
@@ -634,9 +791,10 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             c.effects.remove(idx);
             if *e == Effect::Saturation {
                 c.clip = None;
+                c.tau_fixed.clear();
             }
             let Some((s_wo, x_wo)) = score(&d, &trials, &c, &hat) else { continue };
-            let z = paired_z(&s_wo.units, &cur_score.units);
+            let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clipped_units) } else { paired_z(&s_wo.units, &cur_score.units) };
             let dbic = cur_score.bic - s_wo.bic;
             let passes = z >= MIN_Z && dbic <= MIN_DBIC;
             if !passes && worst.as_ref().is_none_or(|w| z < w.4) {
