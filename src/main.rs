@@ -60,6 +60,10 @@ enum Cmd {
         /// With --sensor: the rig manifest whose plunger mass is the preload.
         #[arg(long)]
         rig: Option<PathBuf>,
+        /// The loads were applied by a machine, not by hand: look for no handling spikes
+        /// (a recording can say so itself with a `# loading: actuator` line).
+        #[arg(long)]
+        actuator: bool,
     },
     /// Simulate the rig and sensor: write a recording and its noise-free truth.
     Simulate {
@@ -134,8 +138,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             println!("wrote {} file(s) to {}", s.written.len(), out.display());
             Ok(())
         }
-        Cmd::Diagnose { recordings, out, no_filter, sensor, rig } => {
-            let s = tipforge::sensor::cli::diagnose(&recordings, !no_filter, &out, sensor.as_deref(), rig.as_deref())?;
+        Cmd::Diagnose { recordings, out, no_filter, sensor, rig, actuator } => {
+            let s = tipforge::sensor::cli::diagnose(&recordings, !no_filter, &out, sensor.as_deref(), rig.as_deref(), actuator)?;
             for l in &s.lines {
                 println!("{l}");
             }

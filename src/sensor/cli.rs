@@ -181,10 +181,11 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
 }
 
 /// `tipforge diagnose`: returns the summary lines and the files written.
-pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Path>, rig: Option<&Path>) -> Result<FitSummary> {
+pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Path>, rig: Option<&Path>, actuator: bool) -> Result<FitSummary> {
     let recs = read_all(paths, paths.len() > 3)?;
     let mut opts = Options::default();
     opts.pre.mean_filter = filter;
+    opts.pre.handling = !actuator;
     let sp = match sensor {
         Some(p) => Some(load_sensor(p)?),
         None => None,

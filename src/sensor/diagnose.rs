@@ -82,6 +82,12 @@ struct Trial {
     sigma: f64,
     /// With a simulator baseline: its level before the first step.
     prior0: Option<f64>,
+    /// How far below a clip the filtered series is bent by the clipped raw noise.
+    clip_margin: f64,
+    /// The series as given, handling spikes included (the baseline, the paper's model, is fitted
+    /// to it).
+    given_t: Vec<f64>,
+    given_v: Vec<f64>,
 }
 
 impl Trial {
@@ -103,6 +109,10 @@ struct Config {
     /// With a clip: the time constant and onset of each step the clip shapes, as
     /// ((trial, segment), τ, onset). The clipped shape biases those steps' own first-order fits.
     tau_fixed: Vec<((usize, usize), f64, f64)>,
+    /// With a clip: the (trial, segment) steps that fall from a clipped load. The signal leaves the
+    /// clip on a first-order fall from the clip itself (their part-1 fits are of that fall), so they
+    /// restart at the clip: v = L_next·u + clip·(1 − u).
+    restart: Vec<(usize, usize)>,
 }
 
 impl Config {
@@ -162,8 +172,13 @@ impl Design {
             if let Some(c) = self.loads.iter().position(|&x| x == sg.load).filter(|&c| c > 0) {
                 out[base + c - 1] += u;
             }
+            let restart = cfg.restart.contains(&(i, s));
             if let Some(c) = self.loads.iter().position(|&x| x == sg.prev).filter(|&c| c > 0) {
-                out[base + c - 1] -= u;
+                out[base + c - 1] -= if restart { 1.0 } else { u };
+            }
+            if restart {
+                // v = L_next·u + clip·(1 − u) in absolute levels: the offset takes part only by u
+                out[i] -= 1.0 - u;
             }
         }
         let mut col = self.n_levels();
@@ -227,9 +242,26 @@ impl Design {
     }
 }
 
+/// The constant part of the steps that restart at the clip: clip·(1 − u) each.
+fn clip_offset(i: usize, tr: &Trial, t: f64, cfg: &Config) -> f64 {
+    let Some(c) = cfg.clip else { return 0.0 };
+    cfg.restart
+        .iter()
+        .filter(|(k, _)| *k == i)
+        .map(|&(_, s)| {
+            let sg = &tr.segs[s];
+            if t >= sg.t0 {
+                c * (-(t - sg.t0) / sg.tau).exp()
+            } else {
+                0.0
+            }
+        })
+        .sum()
+}
+
 fn usable(tr: &Trial, j: usize, cfg: &Config) -> bool {
     match cfg.clip {
-        Some(c) => tr.v[j] < c - 0.5 * tr.sigma.max(1e-12),
+        Some(c) => tr.v[j] < c - tr.clip_margin.max(0.5 * tr.sigma).max(1e-12),
         None => true,
     }
 }
@@ -250,23 +282,35 @@ fn solve(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, ha
             if r[a] == 0.0 {
                 continue;
             }
-            aty[a] += r[a] * (tr.v[j] - tr.prior(tr.t[j]));
+            aty[a] += r[a] * (tr.v[j] - tr.prior(tr.t[j]) - clip_offset(i, tr, tr.t[j], cfg));
             for b in 0..p {
                 ata[(a, b)] += r[a] * r[b];
             }
         }
     }
+    let empty: Vec<bool> = (0..p).map(|a| ata[(a, a)] == 0.0).collect();
     // tiny ridge keeps columns without data (a load absent from a fold) solvable at zero
     for a in 0..p {
         ata[(a, a)] += 1e-12 * (1.0 + ata[(a, a)]);
     }
-    let x = ata.cholesky()?.solve(&aty);
-    Some(x.iter().copied().collect())
+    let mut x: Vec<f64> = ata.cholesky()?.solve(&aty).iter().copied().collect();
+    // with a clip, a load whose samples all sit at the clip has a level no sample constrains: it
+    // lies somewhere above the clip, and the prediction there is the clip either way
+    if let (Some(c), false) = (cfg.clip, d.prior) {
+        let n = d.n_trials;
+        let offset = x[..n].iter().sum::<f64>() / n as f64;
+        for col in n..d.n_levels() {
+            if empty[col] {
+                x[col] = c - offset;
+            }
+        }
+    }
+    Some(x)
 }
 
 fn predict(d: &Design, i: usize, tr: &Trial, t: f64, x: &[f64], cfg: &Config, hat: &Hat, buf: &mut Vec<f64>) -> f64 {
     d.row(i, tr, t, cfg, hat, buf);
-    let v: f64 = buf.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() + tr.prior(t);
+    let v: f64 = buf.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() + tr.prior(t) + clip_offset(i, tr, t, cfg);
     match cfg.clip {
         Some(c) => v.min(c),
         None => v,
@@ -293,8 +337,14 @@ fn all_rows(trials: &[Trial]) -> Vec<(usize, usize)> {
 
 /// Fit on everything (rmse, BIC) and on folds (held-out RMSE).
 fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score, Vec<f64>)> {
+    score_on(d, trials, trials, cfg, hat)
+}
+
+/// Fitted to `fit` (the same trials, possibly as given with handling spikes), scored on `trials`.
+fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score, Vec<f64>)> {
     let rows = all_rows(trials);
-    let x = solve(d, trials, &rows, cfg, hat)?;
+    let fit_rows = all_rows(fit);
+    let x = solve(d, fit, &fit_rows, cfg, hat)?;
     let mut buf = Vec::new();
     let (mut rss, mut n) = (0.0, 0usize);
     for &(i, j) in &rows {
@@ -309,8 +359,8 @@ fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score
     let seg_of = |tr: &Trial, t: f64| tr.segs.iter().filter(|s| s.t0 <= t).count();
     if trials.len() >= 2 {
         for k in 0..trials.len() {
-            let train: Vec<(usize, usize)> = rows.iter().copied().filter(|r| r.0 != k).collect();
-            let Some(mut xk) = solve(d, trials, &train, cfg, hat) else { continue };
+            let train: Vec<(usize, usize)> = fit_rows.iter().copied().filter(|r| r.0 != k).collect();
+            let Some(mut xk) = solve(d, fit, &train, cfg, hat) else { continue };
             // the held-out trial's own offset, from its samples before the first step
             let tr = &trials[k];
             let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
@@ -331,8 +381,8 @@ fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score
         let tr = &trials[0];
         for s in 0..tr.segs.len() {
             let (a, b) = (tr.segs[s].t0, tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY));
-            let train: Vec<(usize, usize)> = rows.iter().copied().filter(|r| !(tr.t[r.1] >= a && tr.t[r.1] < b)).collect();
-            let Some(mut xk) = solve(d, trials, &train, cfg, hat) else { continue };
+            let train: Vec<(usize, usize)> = fit_rows.iter().copied().filter(|r| !(fit[0].t[r.1] >= a && fit[0].t[r.1] < b)).collect();
+            let Some(mut xk) = solve(d, fit, &train, cfg, hat) else { continue };
             // the held-out step's own time-constant correction has (almost) no training data:
             // predict it with the step's fitted τ
             if cfg.tau_free && !d.prior {
@@ -455,7 +505,7 @@ pub struct Prediction {
     pub windows: Vec<(f64, f64)>,
 }
 
-fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording]) -> Vec<Trial> {
+fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], block: usize) -> Vec<Trial> {
     let mut out = Vec::new();
     for (ri, rec) in recs.iter().enumerate() {
         let series = &prep.series[ri];
@@ -468,7 +518,18 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording]) -> Vec<Tria
             segs.push(Seg { key, t0, load: st.after, prev: st.before, tau: f.tau_s, phase: st.phase, sim: None });
         }
         let keep: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j]).collect();
-        out.push(Trial { name: rec.source.clone(), t: keep.iter().map(|&j| series.t[j]).collect(), v: keep.iter().map(|&j| series.v[j]).collect(), segs, sigma: series.sigma, prior0: None });
+        out.push(Trial {
+            name: rec.source.clone(),
+            t: keep.iter().map(|&j| series.t[j]).collect(),
+            v: keep.iter().map(|&j| series.v[j]).collect(),
+            segs,
+            sigma: series.sigma,
+            // the raw samples' noise: a clip bends the filtered series within a few of these
+            clip_margin: 2.0 * series.sigma * (block as f64).sqrt(),
+            prior0: None,
+            given_t: series.given_t.clone(),
+            given_v: series.given_v.clone(),
+        });
     }
     out
 }
@@ -533,7 +594,7 @@ fn tau_line(trials: &[Trial], skip: &[(usize, usize)]) -> Option<(f64, f64)> {
 fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
     let sg = &tr.segs[s];
     let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
-    let pts: Vec<(f64, f64)> = tr.t.iter().zip(&tr.v).filter(|(&t, &v)| t >= sg.t0 - 1.0 && t < end && v < clip - 0.5 * tr.sigma.max(1e-12)).map(|(&t, &v)| (t, v)).collect();
+    let pts: Vec<(f64, f64)> = tr.t.iter().zip(&tr.v).filter(|(&t, &v)| t >= sg.t0 - 1.0 && t < end && v < clip - tr.clip_margin.max(0.5 * tr.sigma).max(1e-12)).map(|(&t, &v)| (t, v)).collect();
     let mut best = (f64::INFINITY, sg.t0);
     for g in 0..=120 {
         let t0 = sg.t0 - 0.8 + 0.01 * g as f64;
@@ -562,42 +623,19 @@ fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
     best.1
 }
 
-/// Time constants and onsets of the steps a clip shapes. Rising into it: τ from the other steps'
-/// τ line, onset from a local fit below the clip. Falling from it: the part-1 fit saw a first-order
-/// fall starting at the clip (τ unbiased, onset late by the time the true signal took to fall from
-/// its level to the clip), so the onset moves back by τ·ln((L_top − L_next)/(clip − L_next)) with
-/// the levels of a first clipped fit.
-fn clip_fixes(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, into: &[(usize, usize)], from: &[(usize, usize)]) -> Vec<((usize, usize), f64, f64)> {
+/// Time constants and onsets of the steps rising into a clip: τ from the other steps' τ line,
+/// onset from a local fit below the clip (the part-1 fit of the clipped shape is biased). The steps
+/// falling from it restart at the clip instead (`Config::restart`).
+fn clip_fixes(trials: &[Trial], cfg: &Config, into: &[(usize, usize)], from: &[(usize, usize)]) -> Vec<((usize, usize), f64, f64)> {
     let Some(clip) = cfg.clip else { return vec![] };
     let Some((a, b)) = tau_line(trials, &[into, from].concat()) else { return vec![] };
-    let mut fixes: Vec<((usize, usize), f64, f64)> = into
+    let fixes: Vec<((usize, usize), f64, f64)> = into
         .iter()
         .map(|&(k, s)| {
             let tau = (a + b * trials[k].segs[s].load).max(1e-3);
             ((k, s), tau, rising_onset(&trials[k], s, tau, clip))
         })
         .collect();
-    // the falling steps' onsets depend on the top level, which they in turn pull on: iterate
-    let n_into = fixes.len();
-    for _ in 0..4 {
-        let mut c = cfg.clone();
-        c.tau_fixed = fixes.clone();
-        let Some(x) = solve(d, trials, &all_rows(trials), &c, hat) else { break };
-        let level = |k: usize, load: f64| -> f64 {
-            let mut v = x[k];
-            if let Some(ci) = d.loads.iter().position(|&l| l == load).filter(|&ci| ci > 0) {
-                v += x[d.n_trials + ci - 1];
-            }
-            v
-        };
-        fixes.truncate(n_into);
-        for &(k, s) in from {
-            let sg = &trials[k].segs[s];
-            let (top, next) = (level(k, sg.prev), level(k, sg.load));
-            let delay = if top > clip && clip > next { sg.tau * ((top - next) / (clip - next)).ln() } else { 0.0 };
-            fixes.push(((k, s), sg.tau, sg.t0 - delay));
-        }
-    }
     fixes
 }
 
@@ -652,7 +690,7 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
 /// onsets found in the data) is the baseline; only per-trial offsets and catalogue terms are fitted.
 pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Diagnosis> {
     let (report, prep) = analyze::analyze(recs, opts);
-    let mut trials = trials_from(&report, &prep, recs);
+    let mut trials = trials_from(&report, &prep, recs, if opts.pre.mean_filter { opts.pre.block.max(1) } else { 1 });
     if let Some(sb) = sim {
         let kind = recs.first()?.protocol_kind;
         let force = |load: f64| kind.grams(load).map(|g| (g + sb.preload_g) / 1000.0 * super::sim::G_N_PER_KG);
@@ -682,7 +720,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             Hat { loads: loads.clone(), level }
         }
         None => {
-            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, clip: None, tau_fixed: vec![] };
+            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, clip: None, tau_fixed: vec![], restart: vec![] };
             let rows = all_rows(&trials);
             let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
             let mut level = vec![0.0];
@@ -692,8 +730,14 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     };
     let hat0 = hat.clone();
     // the baseline: first-order steps with their levels and time constants refitted jointly
-    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, clip: None, tau_fixed: vec![] };
-    let (base, xb) = score(&d, &trials, &base_cfg, &hat)?;
+    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, clip: None, tau_fixed: vec![], restart: vec![] };
+    // (fitted to the data as given, scored on the data without the handling spikes; the diagnosis
+    // works on the latter, and the spikes are reported and excluded below)
+    let given: Vec<Trial> = trials.iter().map(|tr| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), ..tr.clone() }).collect();
+    let has_spikes = trials.iter().any(|tr| tr.t != tr.given_t || tr.v != tr.given_v);
+    let (base, xb) = score_on(&d, if has_spikes { &given } else { &trials }, &trials, &base_cfg, &hat)?;
+    let clean_cfg = base_cfg.clone();
+    let (clean, xc) = if has_spikes { score(&d, &trials, &clean_cfg, &hat)? } else { (base.clone(), xb.clone()) };
     let clip = clip_level(&trials);
     let (clip_into, clip_from, clipped_units) = match clip {
         Some(c) => clipped_segments(&trials, c),
@@ -703,8 +747,8 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
         super::preprocess::median(&mut t)
     };
-    let mut cur = base_cfg.clone();
-    let (mut cur_score, mut cur_x) = (base.clone(), xb.clone());
+    let mut cur = clean_cfg.clone();
+    let (mut cur_score, mut cur_x) = (clean.clone(), xc.clone());
     let mut findings = Vec::new();
     let mut decisions = Vec::new();
     for round in 0..CATALOGUE.len() {
@@ -724,7 +768,8 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
                     let mut c = cur.clone();
                     c.effects.push(e);
                     c.clip = clip;
-                    c.tau_fixed = clip_fixes(&d, &trials, &c, &hat, &clip_into, &clip_from);
+                    c.tau_fixed = clip_fixes(&trials, &c, &clip_into, &clip_from);
+                    c.restart = clip_from.clone();
                     vec![c]
                 }
                 _ => {
@@ -792,6 +837,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             if *e == Effect::Saturation {
                 c.clip = None;
                 c.tau_fixed.clear();
+                c.restart.clear();
             }
             let Some((s_wo, x_wo)) = score(&d, &trials, &c, &hat) else { continue };
             let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clipped_units) } else { paired_z(&s_wo.units, &cur_score.units) };
@@ -852,15 +898,16 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         .flat_map(|r| r.spikes.iter().map(move |w| Window { recording: r.source.clone(), start_s: w.start_s, end_s: w.end_s, statistic: format!("peak {:+.4} {}", w.peak, r.unit) }))
         .collect();
     if !spikes.is_empty() {
+        let n_spikes = spikes.len();
         findings.push(Finding {
             effect: Effect::HandlingSpikes.name(),
             confidence: if spikes.len() >= 2 { "high" } else { "medium" },
             explanation: Effect::HandlingSpikes.explanation().to_string(),
             windows: spikes,
-            term: Term { name: "excluded".into(), params: serde_json::json!({}) },
-            heldout_rmse_before: cur_score.heldout_rmse,
-            heldout_rmse_after: cur_score.heldout_rmse,
-            delta_bic: 0.0,
+            term: Term { name: "excluded".into(), params: serde_json::json!({"windows_excluded": n_spikes}) },
+            heldout_rmse_before: base.heldout_rmse,
+            heldout_rmse_after: clean.heldout_rmse,
+            delta_bic: clean.bic - base.bic,
         });
     }
     let remaining = locate(&d, &trials, &cur_x, &cur, &hat);

@@ -13,6 +13,10 @@ pub struct Series {
     pub ok: Vec<bool>,
     /// Robust noise estimate of the series (same unit as v).
     pub sigma: f64,
+    /// The series as given: the same filter over every sample, handling spikes included (what the
+    /// paper's method fits).
+    pub given_t: Vec<f64>,
+    pub given_v: Vec<f64>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -57,11 +61,15 @@ pub struct Options {
     pub spike_sigma: f64,
     /// Deviations longer than this are not handling spikes.
     pub max_spike_s: f64,
+    /// Loads placed by hand (true, the paper's method): short excursions near a step are handling
+    /// spikes and are excluded. False for loads applied by a machine (`--actuator`, or a recording
+    /// whose metadata says `loading: actuator`): there is nothing to exclude.
+    pub handling: bool,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Options { mean_filter: true, block: 10, min_step_s: 1.0, spike_sigma: 8.0, max_spike_s: 1.0 }
+        Options { mean_filter: true, block: 10, min_step_s: 1.0, spike_sigma: 8.0, max_spike_s: 1.0, handling: true }
     }
 }
 
@@ -147,7 +155,8 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
 pub fn prepare(rec: &Recording, opts: &Options) -> (Series, Vec<SpikeWindow>) {
     let (steps, _) = segment(rec, opts);
     let (all, mut mask) = spikes(&rec.time_s, &rec.response, opts);
-    let near = |t: f64| steps.iter().any(|s| (t - s.t_log).abs() <= HANDLING_WINDOW_S);
+    let by_hand = opts.handling && rec.meta.all.get("loading").is_none_or(|l| l.trim() != "actuator");
+    let near = |t: f64| by_hand && steps.iter().any(|s| (t - s.t_log).abs() <= HANDLING_WINDOW_S);
     let mut windows = Vec::new();
     for w in all {
         if near(w.start_s) || near(w.end_s) {
@@ -162,8 +171,12 @@ pub fn prepare(rec: &Recording, opts: &Options) -> (Series, Vec<SpikeWindow>) {
     }
     let block = if opts.mean_filter { opts.block.max(1) } else { 1 };
     let (mut t, mut v, mut g, mut ok) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut given_t, mut given_v) = (Vec::new(), Vec::new());
     for start in (0..rec.len()).step_by(block) {
         let end = (start + block).min(rec.len());
+        let n_all = (end - start) as f64;
+        given_t.push(rec.time_s[start..end].iter().sum::<f64>() / n_all);
+        given_v.push(rec.response[start..end].iter().sum::<f64>() / n_all);
         let idx: Vec<usize> = (start..end).filter(|&i| mask[i]).collect();
         if idx.is_empty() {
             continue;
@@ -175,7 +188,7 @@ pub fn prepare(rec: &Recording, opts: &Options) -> (Series, Vec<SpikeWindow>) {
         ok.push(true);
     }
     let sigma = noise_sigma(&v);
-    (Series { t, v, protocol: g, ok, sigma }, windows)
+    (Series { t, v, protocol: g, ok, sigma, given_t, given_v }, windows)
 }
 
 /// Steps from the protocol column (of the raw recording, so logged times keep full resolution).
