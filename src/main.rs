@@ -61,7 +61,7 @@ enum Cmd {
         #[arg(long)]
         rig: Option<PathBuf>,
         /// The loads were applied by a machine, not by hand: look for no handling spikes
-        /// (a recording can say so itself with a `# loading: actuator` line).
+        /// (a recording can say so itself with a `# loading=actuator` line).
         #[arg(long)]
         actuator: bool,
     },

@@ -63,7 +63,7 @@ pub struct Options {
     pub max_spike_s: f64,
     /// Loads placed by hand (true, the paper's method): short excursions near a step are handling
     /// spikes and are excluded. False for loads applied by a machine (`--actuator`, or a recording
-    /// whose metadata says `loading: actuator`): there is nothing to exclude.
+    /// whose metadata says `loading=actuator`): there is nothing to exclude.
     pub handling: bool,
 }
 
