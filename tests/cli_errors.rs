@@ -211,3 +211,16 @@ fn shared_real_recording_fits() {
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert!(report["steps"].as_array().unwrap().len() >= 8, "{text}");
 }
+
+#[test]
+fn a_part_name_cannot_leave_the_output_folder() {
+    for (file, base) in [("r.toml", "params/rig.toml"), ("f.toml", "params/fingertip-1s.toml")] {
+        let d = dir(&format!("name-{file}"));
+        let text = std::fs::read_to_string(base).unwrap().replacen("\n[", "\nname = \"../escaped\"\n[", 1);
+        std::fs::write(d.join("params").join(file), text).unwrap();
+        let (code, out) = run(&d);
+        assert_eq!(code, 2, "{out}");
+        assert!(out.contains("name = \"../escaped\""), "{out}");
+        assert!(!d.join("escaped.stl").exists() && !d.join("out").exists());
+    }
+}

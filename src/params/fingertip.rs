@@ -182,14 +182,7 @@ impl FingertipParams {
         let sensors: Option<Vec<RawSensor>> = src.table("sensor", &mut problems);
         let mount: Option<RawMount> = src.table("mount", &mut problems);
         let print: Option<RawPrint> = src.table("print", &mut problems);
-        let name: Option<String> = match src.value.get("name") {
-            None => Some(default_name.to_string()),
-            Some(toml::Value::String(s)) if !s.is_empty() && s.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '-' || ch == '_') => Some(s.clone()),
-            Some(v) => {
-                problems.push(src.problem("name", v.to_string(), "name must be letters, digits, '-' or '_' (it names the output files)".into()));
-                None
-            }
-        };
+        let name = super::part_name(src, default_name, &mut problems);
         c.problems.extend(problems);
         let (Some(body), Some(sensors), Some(mount), Some(print), Some(name)) = (body, sensors, mount, print, name) else {
             return super::finish(None, c.problems);

@@ -11,7 +11,7 @@ pub mod rig;
 pub mod sensor;
 mod raw;
 
-pub use raw::{Collector, Schema, SourceFile};
+pub use raw::{part_name, Collector, Schema, SourceFile};
 
 use crate::error::{Error, Problem, Problems, Result};
 use std::path::Path;

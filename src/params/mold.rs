@@ -168,14 +168,7 @@ impl MoldParams {
         let md: Option<RawMold> = src.table("mold", &mut problems);
         let fl: Option<RawFlat> = src.table("flat", &mut problems);
         c.problems.extend(problems);
-        let name = match src.value.get("name") {
-            None => Some(default_name.to_string()),
-            Some(toml::Value::String(s)) if !s.is_empty() && s.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '-' || ch == '_') => Some(s.clone()),
-            Some(v) => {
-                c.push("name", v, "name must be letters, digits, '-' or '_' (it names the output files)");
-                None
-            }
-        };
+        let name = super::part_name(src, default_name, &mut c.problems);
         let style = match src.value.get("style") {
             None => Some(Style::Conforming),
             Some(toml::Value::String(s)) if s == "conforming" => Some(Style::Conforming),

@@ -190,6 +190,19 @@ pub fn nearest<'a>(key: &str, known: &[&'a str]) -> Option<&'a str> {
         .map(|(_, k)| k)
 }
 
+/// The file's `name` (it names the output files), or `default_name` when absent. Letters, digits,
+/// '-' and '_' only, so a name can never leave the output folder.
+pub fn part_name(src: &SourceFile, default_name: &str, problems: &mut Vec<Problem>) -> Option<String> {
+    match src.value.get("name") {
+        None => Some(default_name.to_string()),
+        Some(toml::Value::String(s)) if !s.is_empty() && s.chars().all(|ch| ch.is_ascii_alphanumeric() || ch == '-' || ch == '_') => Some(s.clone()),
+        Some(v) => {
+            problems.push(src.problem("name", v.to_string(), "name must be letters, digits, '-' or '_' (it names the output files)".into()));
+            None
+        }
+    }
+}
+
 /// Largest length (mm) any parameter may have: beyond it a value is a unit or typing mistake
 /// (and would make the geometry routines run out of memory).
 pub const MAX_LENGTH_MM: f64 = 1000.0;

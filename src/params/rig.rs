@@ -139,9 +139,8 @@ impl RigParams {
         let (Some(s), Some(b), Some(p), Some(pr)) = (s, b, p, pr) else {
             return super::finish(None, c.problems);
         };
-        let name = match src.value.get("name") {
-            Some(toml::Value::String(n)) => n.clone(),
-            _ => default_name.to_string(),
+        let Some(name) = super::part_name(src, default_name, &mut c.problems) else {
+            return super::finish(None, c.problems);
         };
         let v = validate(&mut c, name, &s, &b, &p, &pr);
         super::finish(v, c.problems)
