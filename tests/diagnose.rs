@@ -94,6 +94,8 @@ fn shared_real_recording_is_diagnosed() {
     // catalogue: no term improves held-out prediction consistently across steps, and the
     // remaining structure must be flagged with its windows
     assert!(d.unexplained.flag && !d.unexplained.evidence.is_empty(), "{:?}", d.unexplained);
+    // and what remains is described: a transient of one sign after steps up and down alike
+    assert!(d.unexplained.evidence[0].contains("whichever way the load changed"), "{:?}", d.unexplained.evidence);
     assert!(d.decisions.iter().any(|x| x.candidate == "creep"));
     assert!(d.final_.heldout_rmse <= d.baseline.heldout_rmse);
     println!("real: {:?}, held-out {:.1} → {:.1} ohm, unexplained {}", d.final_.effects, d.baseline.heldout_rmse, d.final_.heldout_rmse, d.unexplained.flag);

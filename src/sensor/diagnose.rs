@@ -676,6 +676,50 @@ fn locate(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &Hat) -> V
     out
 }
 
+/// What the residual does right after the steps: a transient of one sign after loading and
+/// unloading steps alike (a response to the change itself, which no term of the catalogue has),
+/// or one that follows the step's direction (a faster or slower relaxation than modelled).
+fn step_transients(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &Hat, unit: &str) -> Option<String> {
+    let mut buf = Vec::new();
+    let (mut up, mut down) = (Vec::new(), Vec::new());
+    for (i, tr) in trials.iter().enumerate() {
+        for (s, sg) in tr.segs.iter().enumerate() {
+            let end = tr.segs.get(s + 1).map(|n| n.t0).unwrap_or(f64::INFINITY);
+            let early = sg.t0 + 0.1 * (end.min(tr.t[tr.t.len() - 1]) - sg.t0);
+            let r: Vec<f64> = (0..tr.t.len()).filter(|&j| tr.t[j] >= sg.t0 && tr.t[j] < early).map(|j| tr.v[j] - predict(d, i, tr, tr.t[j], x, cfg, hat, &mut buf)).collect();
+            if r.len() < 3 {
+                continue;
+            }
+            let m = r.iter().sum::<f64>() / r.len() as f64;
+            if m.abs() > 3.0 * tr.sigma {
+                if sg.load > sg.prev { up.push(m) } else { down.push(m) }
+            }
+        }
+    }
+    let (nu, nd) = (up.len(), down.len());
+    if nu < 2 || nd < 2 {
+        return None;
+    }
+    let pos = |v: &[f64]| v.iter().filter(|m| **m > 0.0).count() as f64 / v.len() as f64;
+    let (pu, pd) = (pos(&up), pos(&down));
+    let mean_abs = |v: &[f64]| v.iter().map(|m| m.abs()).sum::<f64>() / v.len() as f64;
+    let sig = |v: f64| {
+        let digits = (2 - v.abs().max(1e-300).log10().floor() as i32).max(0) as usize;
+        format!("{v:.digits$}")
+    };
+    let size = format!("by {} {unit} after loading, {} {unit} after unloading, mean over the first tenth of each step", sig(mean_abs(&up)), sig(mean_abs(&down)));
+    if (pu >= 0.8 && pd >= 0.8) || (pu <= 0.2 && pd <= 0.2) {
+        let sign = if pu >= 0.8 { "above" } else { "below" };
+        Some(format!(
+            "after {nu} loading and {nd} unloading steps the data run {sign} the model at first, whichever way the load changed ({size}): a response to the change itself (a strain-rate or overshoot transient), which no term of the catalogue has"
+        ))
+    } else if (pu >= 0.8 && pd <= 0.2) || (pu <= 0.2 && pd >= 0.8) {
+        Some(format!("after {nu} loading and {nd} unloading steps the early residual follows the step's direction ({size}): the relaxation is {} than the model's", if pu >= 0.8 { "faster at first" } else { "slower at first" }))
+    } else {
+        None
+    }
+}
+
 /// The simulator as the baseline: its sensor model and the preload (g) on top of the logged loads.
 pub struct SimBaseline<'a> {
     pub sensor: &'a crate::params::sensor::SensorParams,
@@ -911,10 +955,13 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         });
     }
     let remaining = locate(&d, &trials, &cur_x, &cur, &hat);
-    let unexplained = Unexplained {
-        flag: !remaining.is_empty(),
-        evidence: remaining.iter().map(|w| format!("{} {:.1}–{:.1} s: {}", w.recording, w.start_s, w.end_s, w.statistic)).collect(),
-    };
+    let mut evidence: Vec<String> = remaining.iter().map(|w| format!("{} {:.1}–{:.1} s: {}", w.recording, w.start_s, w.end_s, w.statistic)).collect();
+    if !remaining.is_empty() {
+        if let Some(line) = step_transients(&d, &trials, &cur_x, &cur, &hat, &report.unit) {
+            evidence.insert(0, line);
+        }
+    }
+    let unexplained = Unexplained { flag: !remaining.is_empty(), evidence };
     // predictions at every raw sample
     let mut predictions = Vec::new();
     let mut buf = Vec::new();

@@ -24,7 +24,7 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
         ));
     }
     if d.unexplained.flag {
-        out.push(format!("unexplained structure remains in {} window(s), e.g. {}", d.unexplained.evidence.len(), d.unexplained.evidence.first().cloned().unwrap_or_default()));
+        out.push(format!("unexplained structure remains ({} item(s) of evidence in diagnosis.json), e.g. {}", d.unexplained.evidence.len(), d.unexplained.evidence.first().cloned().unwrap_or_default()));
     }
     out.push(format!("improved model: {:?}; held-out RMSE {:.4} → {:.4} {}", d.final_.effects, d.baseline.heldout_rmse, d.final_.heldout_rmse, d.unit));
     out
