@@ -123,3 +123,39 @@ fn simulator_baseline_finds_what_the_simulator_leaves_out_and_nothing_when_it_is
     assert!(!d.findings.is_empty() || d.unexplained.flag);
 }
 
+
+#[test]
+fn actuator_loading_excludes_no_spikes_by_flag_or_metadata() {
+    let dir = std::env::temp_dir().join(format!("tipforge-act-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let bin = env!("CARGO_BIN_EXE_tipforge");
+    // a sensor file with handling spikes switched on
+    let sensor = std::fs::read_to_string("params/sensor.toml").unwrap();
+    let spiky = sensor.replacen("[effects.handling_spikes]\namplitude_v = 0.0", "[effects.handling_spikes]\namplitude_v = 0.2", 1);
+    assert_ne!(spiky, sensor);
+    let sp = dir.join("sensor.toml");
+    std::fs::write(&sp, &spiky).unwrap();
+    let o = Command::new(bin).args(["simulate", "--trials", "2", "--seed", "31000", "--sensor"]).arg(&sp).arg("-o").arg(dir.join("rec.csv")).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let recs = [dir.join("rec-1.csv"), dir.join("rec-2.csv")];
+    let found = |extra: &[&str], recs: &[PathBuf]| -> Vec<String> {
+        let out = dir.join(format!("d{}", extra.len()));
+        let o = Command::new(bin).arg("diagnose").args(recs).args(extra).arg("--out").arg(&out).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let j: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("diagnosis.json")).unwrap()).unwrap();
+        j["findings"].as_array().unwrap().iter().map(|f| f["effect"].as_str().unwrap().to_string()).collect()
+    };
+    assert!(found(&[], &recs).contains(&"handling_spikes".to_string()));
+    assert!(!found(&["--actuator"], &recs).contains(&"handling_spikes".to_string()));
+    // the same said by the recordings themselves
+    let tagged: Vec<PathBuf> = recs
+        .iter()
+        .map(|r| {
+            let p = r.with_extension("tagged.csv");
+            std::fs::write(&p, format!("# loading=actuator\n{}", std::fs::read_to_string(r).unwrap())).unwrap();
+            p
+        })
+        .collect();
+    assert!(!found(&[], &tagged).contains(&"handling_spikes".to_string()));
+}
