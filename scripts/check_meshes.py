@@ -532,16 +532,32 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
     slope = np.degrees(np.arcsin(np.clip(np.abs(nz[good]), 0, 1))).min()
     if slope + 0.02 < mold["draft_deg"]:  # float32 STL vertices tilt small faces by up to ~0.01 deg
         fail("cavity walls must lean by the draft angle", f"steepest {slope:.3f} deg, draft {mold['draft_deg']} deg")
-    probes = cav.triangles_center + 0.02 * cav.face_normals
+    # short probes, slivers where two surfaces meet closer still (a seat's flare meets the end plane)
+    step = np.clip(0.2 * np.sqrt(cav.area_faces), 1e-5, 0.004)
+    probes = cav.triangles_center + step[:, None] * cav.face_normals
     opening = np.zeros(len(probes), bool)
     for o in mold["openings"]:
         opening |= np.hypot(probes[:, 0] - o["xy"][0], probes[:, 1] - o["xy"][1]) < o["radius_mm"] + (zt - zp) + 0.05
-    opening &= (np.abs(cav.triangles_center[:, 2] - zp) < 1e-4) & (nz > 0.999)
     core_m = trimesh.Trimesh(*_mesh_of(core))
     shell_m = trimesh.Trimesh(*_mesh_of(shell))
-    up = (nz > 0) & good & ~opening
-    down = (nz < 0) & good
+    # where the sprue or a vent opens onto the cavity, a face looks into the opening's air
+    cand = opening & (probes[:, 2] > zp - 0.05)
+    if cand.any():
+        idx = np.nonzero(cand)[0]
+        air = ~(core_m.contains(probes[idx]) | shell_m.contains(probes[idx]))
+        opening = np.zeros(len(probes), bool)
+        opening[idx[air]] = True
+    else:
+        opening = cand
+    # a wall parallel to the opening direction (draft 0) may belong to either piece; STL's float32
+    # vertices tilt such faces by up to ~1e-4
+    flat = np.abs(nz) < 2e-4 if mold["draft_deg"] == 0 else np.zeros(len(nz), bool)
+    up = (nz > 0) & good & ~opening & ~flat
+    down = (nz < 0) & good & ~flat
+    either = flat & good
     wrong = int((~core_m.contains(probes[up])).sum() + (~shell_m.contains(probes[down])).sum())
+    if either.any():
+        wrong += int((~(core_m.contains(probes[either]) | shell_m.contains(probes[either]))).sum())
     if wrong:
         fail("each cavity face must belong to the piece that leaves in its direction (no undercut)", f"{wrong} of {int(up.sum() + down.sum())} faces")
     print(f"{name}-assembly: {'ok' if not out else 'FAILED'} (cavity {cavity.volume():.2f} mm3 = cover x {k ** 3:.4f}; inner surface within {worst:.4f} mm; steepest wall {slope:.3f} deg)")

@@ -88,7 +88,12 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
         Solid::hull(&hull)
     };
     let cup = outer.intersection(&region(0.0, 0.0));
-    let plug = surface.intersection(&region(1.0, 0.0));
+    // the plug reaches 1 mm into the flange so the two unite robustly; that reach is the plug's own
+    // last millimetre lifted (the pad narrows downward, so it stays inside the plug's top face and
+    // cannot overhang the rim, the sprue or a vent)
+    let plug_below = surface.intersection(&region(0.0, 0.0));
+    let slab = Solid::cuboid([-1.0, -big_y, ze - 1.0], [far_x, big_y, ze]);
+    let plug = plug_below.union(&plug_below.intersection(&slab).translate([0.0, 0.0, 1.0]));
     let plug_cut = surface.intersection(&region(1.0, 0.5));
     let (cover, _) = cup.difference(&plug_cut).drop_slivers(1e-6);
     cover.ok(name)?;
@@ -137,7 +142,9 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let mut core_parts = vec![flange, plug_k];
     core_parts.extend(pins.iter().cloned());
     let core = Solid::union_all(&core_parts).expect("core");
-    let mut shell_cut = vec![cup_k];
+    // the shell's hollow: the cup carried on 1 mm above the parting plane, so the shell's top face
+    // is cut through, not left coplanar with the cup's rim (which can leave a film over the rim)
+    let mut shell_cut = vec![outer.intersection(&region(1.0, 0.0)).scale_about(k, center)];
     shell_cut.extend(holes.iter().cloned());
     let shell = Solid::cuboid([x_lo_k, -half_y, z_lo], [x_hi, half_y, ze]).difference(&Solid::union_all(&shell_cut).expect("cup"));
     core.ok(&format!("{name}-core"))?;

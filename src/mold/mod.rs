@@ -261,11 +261,16 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
             format!("runs too close to the mount face (body {} mm long): the mold's plug needs {} mm beyond the cover's end; use at most {:.1}", s.length, m.wall_thickness_mm + 1.0, s.length - m.wall_thickness_mm - 1.0),
         );
     }
+    // a facet of the tessellation leans up to acos(1 − tol/R) from the exact surface's normal
+    let facet = (1.0 - m.chordal_tolerance_mm / s.min_curvature_radius()).acos().to_degrees();
     match edge_tilt_deg(s, l.z_parting, l.x_start, t) {
-        Some(tilt) if tilt + 1e-9 < m.draft_deg => push(
+        Some(tilt) if tilt + 1e-9 < m.draft_deg + facet => push(
             "mold.parting_below_midplane_mm",
             m.parting_below_midplane_mm.to_string(),
-            format!("the pad meets the parting plane at {tilt:.2}° from vertical, less than the draft {}°, so the pieces would drag on the cover: move the parting plane further below the mid-plane", m.draft_deg),
+            format!(
+                "the pad meets the parting plane at {tilt:.2}° from vertical, less than the draft {}° plus the {facet:.1}° a facet of the {} mm tessellation may lean, so the pieces would catch on the cover: move the parting plane further below the mid-plane",
+                m.draft_deg, m.chordal_tolerance_mm
+            ),
         ),
         None => push("mold.parting_below_midplane_mm", m.parting_below_midplane_mm.to_string(), "the pad does not reach below the parting plane".into()),
         _ => {}
