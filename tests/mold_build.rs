@@ -92,6 +92,10 @@ fn checks_fire_on_broken_assemblies() {
     c.core = c.core.union(&tipforge::mesh::Solid::cuboid([lo[0], lo[1], c.z_parting + 0.5], [hi[0], hi[1], c.z_top]));
     let r = rules(&c);
     assert!(r.iter().any(|r| r.contains("reach the outside")) && r.iter().any(|r| r.contains("open straight into")), "{r:?}");
+    // the pieces swapped: faces looking up now lie on the piece that leaves downward
+    let mut e = conforming::assemble(&p).unwrap().1;
+    std::mem::swap(&mut e.core, &mut e.shell);
+    assert!(rules(&e).iter().any(|r| r.contains("no undercut")), "{:?}", rules(&e));
     // a cover grown 3 %: it no longer matches the cavity
     let mut d = conforming::assemble(&p).unwrap().1;
     d.cover = d.cover.scale_about(1.03, d.scale_center);
@@ -146,6 +150,8 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
         ("parting_below_midplane_mm = 1.0", "parting_below_midplane_mm = 0.0", "less than the draft"),
         ("parting_below_midplane_mm = 1.0", "parting_below_midplane_mm = 5.0", "inside the pad"),
         ("vent_diameter_mm = 0.8", "vent_diameter_mm = 1.6", "wider than the cavity's rim"),
+        ("demolding_tilt_deg = 0.0", "demolding_tilt_deg = 30.0", "mold.demolding_tilt_deg"),
+        ("demolding_tilt_deg = 0.0", "demolding_tilt_deg = 6.0", "parting_below_midplane_mm"),
         ("material = \"PLA\"", "material = \"ABS\"", "mold.material"),
         ("style = \"conforming\"", "style = \"wavy\"", "style = \"wavy\""),
         ("fingertip = \"fingertip-1s.toml\"", "fingertip = \"nope.toml\"", "cannot read"),
@@ -173,6 +179,11 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
     assert_eq!(code, 2, "{text}");
     assert!(text.contains("breaks through") && text.contains("cover.thickness_mm"), "{text}");
     std::fs::write(d.join("params/fingertip-1s.toml"), tip).unwrap();
+    // a tilted opening with a deeper parting plane builds and passes every check
+    let tilted = base.replacen("demolding_tilt_deg = 0.0", "demolding_tilt_deg = 5.0", 1).replacen("parting_below_midplane_mm = 1.0", "parting_below_midplane_mm = 2.2", 1).replacen("dome_clearance_mm = 0.3 ", "dome_clearance_mm = 0.6 ", 1);
+    let (code, text) = run(&d, &tilted);
+    assert_eq!(code, 0, "{text}");
+    let _ = std::fs::remove_dir_all(d.join("out"));
     // the default file builds
     let (code, text) = run(&d, &base);
     assert_eq!(code, 0, "{text}");

@@ -300,7 +300,6 @@ fn draft_check(a: &Assembled, _draft: f64) -> (f64, usize, usize) {
     let mut min_slope = 90.0f64;
     let mut wrong = 0;
     let mut n = 0;
-    let above = a.z_top + 5.0;
     for t in &cav.triangles {
         let [p0, p1, p2] = t.map(|i| cav.vertices[i as usize]);
         let nrm = mesh::cross(sub(p1, p0), sub(p2, p0));
@@ -312,26 +311,25 @@ fn draft_check(a: &Assembled, _draft: f64) -> (f64, usize, usize) {
         n += 1;
         min_slope = min_slope.min(nn[2].abs().asin().to_degrees());
         let c = scale(add(add(p0, p1), p2), 1.0 / 3.0);
-        // a short probe: faces can lie within hundredths of a millimetre of the other piece (where a seat's
-        // flare meets the cover's end plane)
-        // (slivers where two surfaces meet are probed closer still, in proportion to their size)
-        let probe = add(c, scale(nn, (0.2 * (0.5 * area2).sqrt()).clamp(1e-5, 0.004)));
-        // where the sprue or a vent opens onto the cavity, the face looks into the opening's air,
-        // not into a piece
-        let in_opening = probe[2] > a.z_parting - 0.05
-            && std::iter::once(a.sprue).chain(a.vents.iter().copied()).any(|(xy, r)| ((probe[0] - xy[0]).powi(2) + (probe[1] - xy[1]).powi(2)).sqrt() < r + 0.05 + (a.z_top - a.z_parting))
-            && !a.core.contains(probe, above)
-            && !a.shell.contains(probe, above);
-        if in_opening {
+        // the piece whose surface the face lies on: a short segment across the face meets it there
+        let on = |piece: &Solid| piece.ray_hits(sub(c, scale(nn, 1e-4)), add(c, scale(nn, 1e-4))).iter().any(|h| (h - 1e-4).abs() < 5e-5);
+        let (on_core, on_shell) = (on(&a.core), on(&a.shell));
+        if !on_core && !on_shell {
+            // where the sprue or a vent opens onto the cavity, the face looks into the opening's air
+            let in_opening = std::iter::once(a.sprue).chain(a.vents.iter().copied()).any(|(xy, r)| ((c[0] - xy[0]).powi(2) + (c[1] - xy[1]).powi(2)).sqrt() < r + 0.05 + (a.z_top - a.z_parting));
+            if !in_opening {
+                wrong += 1;
+            }
             continue;
         }
-        // a wall parallel to the opening direction (allowed with draft 0) may belong to either piece
+        // faces looking up lie on the core, looking down on the shell; a wall parallel to the
+        // opening direction (draft 0) may lie on either
         let owner_ok = if nn[2].abs() < 1e-6 {
-            a.core.contains(probe, above) || a.shell.contains(probe, above)
+            true
         } else if nn[2] > 0.0 {
-            a.core.contains(probe, above)
+            on_core
         } else {
-            a.shell.contains(probe, above)
+            on_shell
         };
         if !owner_ok {
             wrong += 1;

@@ -67,6 +67,11 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let body = Solid::from_mesh(&s.body_mesh(tol, name)?, name)?;
     let outer = Solid::from_mesh(&s.offset_mesh(t, tol, name)?, name)?;
     let surface = core_surface(p, &l, &body, tol);
+    // into the mold's frame (the opening direction is +z there)
+    let to_mold = |x: &Solid| if l.frame.alpha == 0.0 { x.clone() } else { let (a, b, c, o) = l.frame.to_mold_columns(); x.place(a, b, c, o) };
+    let (outer_d, surface_d) = (outer, surface);
+    let (outer, surface) = (to_mold(&outer_d), to_mold(&surface_d));
+    let xs = l.x_start_m;
 
     // the cavity's region: below the parting plane and beyond the cover's end plane, which leans
     // by the draft (x grows downward) so the shell drops off the cover's end and the core's plug
@@ -81,7 +86,7 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
         let mut hull = Vec::new();
         for y in [-big_y, big_y] {
             for z in [ze + up, ze - depth] {
-                hull.push([l.x_start - back + tan * (ze - z), y, z]);
+                hull.push([xs - back + tan * (ze - z), y, z]);
                 hull.push([far_x, y, z]);
             }
         }
@@ -100,16 +105,23 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
 
     // the mold's cavity is the cover grown by the shrinkage, about a point of the parting plane
     let k = 1.0 + c.shrinkage_percent / 100.0;
-    let center = [l.x_start, 0.0, ze];
+    let center = [xs, 0.0, ze];
     let cup_k = cup.scale_about(k, center);
     let plug_k = plug.scale_about(k, center);
     let cavity = cover.scale_about(k, center);
     let (lo, hi) = cup_k.bbox();
     let w = m.wall_thickness_mm;
-    let x_lo_k = l.x_start - k * w;
+    let x_lo_k = xs - k * w;
+    let (sprue_xy, vent_xy) = openings(p, &l);
+    // they were placed on the nominal rim: move them with the cavity's growth
+    let grow = |q: [f64; 2]| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1])];
+    let (sprue_xy, vent_xy): ([f64; 2], Vec<[f64; 2]>) = (grow(sprue_xy), vent_xy.into_iter().map(grow).collect());
     let (kr, kc) = (m.key_diameter_mm / 2.0, m.key_clearance_mm);
     let half_y = lo[1].abs().max(hi[1].abs()) + 2.0 * w + 2.0 * (kr + kc);
-    let x_hi = hi[0] + w;
+    // the flange must hold the sprue (it widens to its top) and the vents with a wall round them
+    let r_sprue_top = m.sprue_diameter_mm / 2.0 + (w + 1.0) * m.sprue_taper_deg.to_radians().tan();
+    let x_hi = (hi[0] + w).max(sprue_xy[0] + r_sprue_top + m.min_wall_mm).max(vent_xy.iter().map(|v| v[0] + m.vent_diameter_mm / 2.0 + m.min_wall_mm).fold(f64::NEG_INFINITY, f64::max));
+    let half_y = half_y.max(sprue_xy[1].abs() + r_sprue_top + m.min_wall_mm);
     let z_lo = lo[2] - w;
     let z_top = ze + w;
 
@@ -127,10 +139,6 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     }
 
     // sprue (widening upward) and vents through the flange
-    let (sprue_xy, vent_xy) = openings(p, &l);
-    // they were placed on the nominal rim: move them with the cavity's growth
-    let grow = |q: [f64; 2]| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1])];
-    let (sprue_xy, vent_xy): ([f64; 2], Vec<[f64; 2]>) = (grow(sprue_xy), vent_xy.into_iter().map(grow).collect());
     let rs = m.sprue_diameter_mm / 2.0;
     let st = m.sprue_taper_deg.to_radians().tan();
     let mut openings_cut = vec![Solid::cylinder([sprue_xy[0], sprue_xy[1], ze - 1.0], UP, w + 2.0, (rs - st).max(0.05), rs + (w + 1.0) * st, segments(rs + w * st, tol))];
@@ -149,12 +157,13 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let shell = Solid::cuboid([x_lo_k, -half_y, z_lo], [x_hi, half_y, ze]).difference(&Solid::union_all(&shell_cut).expect("cup"));
     core.ok(&format!("{name}-core"))?;
     shell.ok(&format!("{name}-shell"))?;
+    let cover = if l.frame.alpha == 0.0 { cover } else { let (a, b, c, o) = l.frame.to_design_columns(); cover.place(a, b, c, o) };
     let a = Assembled {
         core,
         shell,
         cavity,
         cover,
-        core_surface: surface,
+        core_surface: surface_d,
         k,
         scale_center: center,
         z_parting: ze,
@@ -246,18 +255,34 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("pieces".into(), json!([core.name, shell.name]));
     entry.insert("cover".into(), json!(cover_name));
     entry.insert("material".into(), mat.clone());
-    entry.insert("demolding".into(), json!("core lifts along the fingertip's +z (toward the nail), shell drops along -z; parting plane at the cover's edge"));
+    entry.insert("demolding".into(), json!(format!("the core lifts along +z of the mold frame (the pad normal tilted {}° toward the tip), the shell drops along -z; parting plane square to it at the cover's edge", p.mold.demolding_tilt_deg)));
     entry.insert("parting_plane_z_mm".into(), json!(a.z_parting));
     entry.insert("checks".into(), measured);
     entry.insert("assembly".into(), json!(format!("{name}-assembly.3mf")));
+    // the fingertip's print frame (y, z, x of the design frame) → design → the mold's frame
+    let dm = l.frame.rows_to_mold();
+    let p2d = [[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]];
+    let mut print_to_mold = [[0.0; 4]; 3];
+    for r in 0..3 {
+        for col in 0..4 {
+            let mut v: f64 = (0..3).map(|k| dm[r][k] * p2d[k][col]).sum();
+            if col == 3 {
+                v += dm[r][3];
+            }
+            print_to_mold[r][col] = v;
+        }
+    }
+    let fm = |q: P3| l.frame.to_mold(q);
+    let fd = |n: P3| l.frame.dir_to_mold(n);
     // what an independent check needs to reassemble the mold from the written files
     entry.insert(
         "frames".into(),
         json!({
             "core_print_to_assembled": [[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]],
             "shell_print_to_assembled": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]],
-            "cover_print_to_assembled": [[0, 0, 1, 0], [1, 0, 0, 0], [0, 1, 0, 0]],
-            "fingertip_print_to_assembled": [[0, 0, 1, 0], [1, 0, 0, 0], [0, 1, 0, 0]],
+            "cover_print_to_assembled": print_to_mold,
+            "fingertip_print_to_assembled": print_to_mold,
+            "design_to_assembled": l.frame.rows_to_mold(),
             "cavity_scale": a.k,
             "cavity_scale_center": a.scale_center,
         }),
@@ -270,11 +295,26 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("openings".into(), json!(std::iter::once(a.sprue).chain(a.vents.iter().copied()).map(|(xy, r)| json!({"xy": xy, "radius_mm": r})).collect::<Vec<_>>()));
     entry.insert(
         "domes_assembled".into(),
-        json!(l.domes.iter().map(|d| json!({"base": d.base, "normal": d.normal, "dome_diameter_mm": 2.0 * d.dome_r, "dome_height_mm": d.depth, "cavity_radius_mm": d.r_base})).collect::<Vec<_>>()),
+        json!(l.domes.iter().map(|d| json!({"base": fm(d.base), "normal": fd(d.normal), "dome_diameter_mm": 2.0 * d.dome_r, "dome_height_mm": d.depth, "cavity_radius_mm": d.r_base})).collect::<Vec<_>>()),
     );
     entry.insert(
         "seats_assembled".into(),
-        json!(l.seats.iter().zip(&p.fingertip.sensors).map(|(st, s)| json!({"center": st.flat_center, "normal": st.normal, "seat_diameter_mm": s.seat_diameter_mm, "channel_width_mm": s.channel_width_mm, "channel_depth_mm": s.channel_depth_mm, "channel_path_xy": fingertip::channel_path(&l.shape, s)})).collect::<Vec<_>>()),
+        json!(l
+            .seats
+            .iter()
+            .zip(&p.fingertip.sensors)
+            .map(|(st, s)| {
+                // the channel's path on the pad, seen from the opening direction
+                let path: Vec<[f64; 2]> = fingertip::channel_path(&l.shape, s)
+                    .iter()
+                    .map(|q| {
+                        let m = fm([q[0], q[1], l.shape.z_pad(q[0].max(1e-9), q[1]).unwrap_or(0.0)]);
+                        [m[0], m[1]]
+                    })
+                    .collect();
+                json!({"center": fm(st.flat_center), "normal": fd(st.normal), "seat_diameter_mm": s.seat_diameter_mm, "channel_width_mm": s.channel_width_mm, "channel_depth_mm": s.channel_depth_mm, "channel_path_xy": path})
+            })
+            .collect::<Vec<_>>()),
     );
     entry.insert("cover_thickness_mm".into(), json!(p.cover.thickness_mm));
     entry.insert("chordal_tolerance_mm".into(), json!(p.mold.chordal_tolerance_mm));

@@ -28,14 +28,59 @@ pub struct MoldBuild {
     pub notes: Vec<String>,
 }
 
-/// Where things are, in the design frame, derived once from the parameters.
+/// The mold's frame: the fingertip's design frame turned about the y axis (through a point of the
+/// finger's axis over the cover's middle) so the opening direction is +z. With no tilt it is the
+/// design frame.
+#[derive(Debug, Clone, Copy)]
+pub struct Frame {
+    /// Tilt of the core's opening direction from the design frame's +z, toward the tip (rad). The
+    /// parameter `demolding_tilt_deg` tilts the shell's (the pad's side) toward the tip: alpha = −it.
+    pub alpha: f64,
+    pub pivot: P3,
+}
+
+impl Frame {
+    fn turn(theta: f64, p: P3) -> P3 {
+        let (s, c) = theta.sin_cos();
+        [p[0] * c + p[2] * s, p[1], -p[0] * s + p[2] * c]
+    }
+    pub fn to_mold(&self, p: P3) -> P3 {
+        mesh::add(Self::turn(-self.alpha, mesh::sub(p, self.pivot)), self.pivot)
+    }
+    pub fn to_design(&self, p: P3) -> P3 {
+        mesh::add(Self::turn(self.alpha, mesh::sub(p, self.pivot)), self.pivot)
+    }
+    pub fn dir_to_mold(&self, n: P3) -> P3 {
+        Self::turn(-self.alpha, n)
+    }
+    /// (images of x, y, z, origin) of design → mold, for `Solid::place`.
+    pub fn to_mold_columns(&self) -> (P3, P3, P3, P3) {
+        let o = self.to_mold([0.0; 3]);
+        (mesh::sub(self.to_mold([1.0, 0.0, 0.0]), o), mesh::sub(self.to_mold([0.0, 1.0, 0.0]), o), mesh::sub(self.to_mold([0.0, 0.0, 1.0]), o), o)
+    }
+    pub fn to_design_columns(&self) -> (P3, P3, P3, P3) {
+        let o = self.to_design([0.0; 3]);
+        (mesh::sub(self.to_design([1.0, 0.0, 0.0]), o), mesh::sub(self.to_design([0.0, 1.0, 0.0]), o), mesh::sub(self.to_design([0.0, 0.0, 1.0]), o), o)
+    }
+    /// The 3×4 row matrix of design → mold (for the manifest).
+    pub fn rows_to_mold(&self) -> [[f64; 4]; 3] {
+        let (ex, ey, ez, o) = self.to_mold_columns();
+        [[ex[0], ey[0], ez[0], o[0]], [ex[1], ey[1], ez[1], o[1]], [ex[2], ey[2], ez[2], o[2]]]
+    }
+}
+
+/// Where things are, derived once from the parameters: the shape, seats and domes in the design
+/// frame; the parting plane and the cover's end in the mold frame.
 #[derive(Debug, Clone)]
 pub struct Layout {
     pub shape: Shape,
-    /// Parting plane height (negative: below the mid-plane).
+    pub frame: Frame,
+    /// Parting plane height in the mold frame (negative: below the mid-plane).
     pub z_parting: f64,
-    /// The cover starts here (toward the mount) and runs to the tip.
+    /// The cover starts here (toward the mount, design frame) and runs to the tip.
     pub x_start: f64,
+    /// The cover's end plane in the mold frame (x of the pad's bottom there).
+    pub x_start_m: f64,
     pub seats: Vec<Seat>,
     pub domes: Vec<Dome>,
 }
@@ -63,14 +108,30 @@ pub struct Dome {
 
 pub fn layout(p: &MoldParams) -> std::result::Result<Layout, String> {
     let shape = Shape::new(&p.fingertip.body);
+    let x_start0 = p.fingertip.body.length_mm - p.cover.from_tip_mm;
+    let frame = Frame { alpha: -p.mold.demolding_tilt_deg.to_radians(), pivot: [(x_start0 + shape.length) / 2.0, 0.0, 0.0] };
     let mut seats = Vec::new();
     let mut domes = Vec::new();
     for (i, s) in p.fingertip.sensors.iter().enumerate() {
         let st = fingertip::seat(&shape, s).map_err(|w| format!("sensor[{i}] {w}"))?;
-        let tilt = (-st.normal[2]).clamp(-1.0, 1.0).acos().to_degrees();
+        let tilt = (-frame.dir_to_mold(st.normal)[2]).clamp(-1.0, 1.0).acos().to_degrees();
         let taper = p.mold.draft_deg + tilt;
         let r_base = (s.dome_diameter_mm + p.cover.dome_clearance_mm) / 2.0;
         let r_top = r_base - s.dome_height_mm * taper.to_radians().tan();
+        // cover left over the cavity: the pad's surface curves away from the flat seat, so the
+        // skin is thinnest toward the cavity's rim, not at its centre
+        let (u, v, _) = mesh::frame(st.normal);
+        let mut skin = f64::INFINITY;
+        for ri in 0..=10 {
+            let r = r_base * ri as f64 / 10.0;
+            let height = if r <= r_top { s.dome_height_mm } else { s.dome_height_mm * (r_base - r) / (r_base - r_top).max(1e-9) };
+            for k in 0..24 {
+                let a = 2.0 * std::f64::consts::PI * k as f64 / 24.0;
+                let q = mesh::add(st.flat_center, mesh::add(mesh::scale(u, r * a.cos()), mesh::scale(v, r * a.sin())));
+                let depth = if shape.inside(q) { shape.exit_distance(q, st.normal, 20.0) } else { 0.0 };
+                skin = skin.min(p.cover.thickness_mm + depth - height);
+            }
+        }
         domes.push(Dome {
             base: st.flat_center,
             normal: st.normal,
@@ -80,86 +141,94 @@ pub fn layout(p: &MoldParams) -> std::result::Result<Layout, String> {
             dome_r: s.dome_diameter_mm / 2.0,
             tilt_deg: tilt,
             taper_deg: taper,
-            skin: p.cover.thickness_mm + st.flat_depth - s.dome_height_mm,
+            skin,
         });
         seats.push(st);
     }
-    Ok(Layout { z_parting: -p.mold.parting_below_midplane_mm, x_start: p.fingertip.body.length_mm - p.cover.from_tip_mm, shape, seats, domes })
+    let x_start = x_start0;
+    let x_start_m = frame.to_mold([x_start, 0.0, -shape.r(x_start)])[0];
+    Ok(Layout { z_parting: -p.mold.parting_below_midplane_mm, x_start, x_start_m, frame, shape, seats, domes })
 }
 
-/// Downward tilt (deg below horizontal) of the exact normal along the cover's edge, on the pad
-/// (the core's side) and on the offset surface (the shell's side): the smaller of the two at each
-/// sample, minimised over the edge. None when the pad does not reach below the parting plane.
-pub fn edge_tilt_deg(shape: &Shape, z_e: f64, x_start: f64, t: f64) -> Option<f64> {
-    let mut worst = f64::INFINITY;
-    let mut any = false;
-    let n = 200;
-    for i in 0..=n {
-        let x = x_start + (shape.length - x_start) * i as f64 / n as f64;
-        let r = shape.r(x);
-        if r <= -z_e {
-            continue;
-        }
-        // pad side: the point at z = z_e on the y > 0 flank
-        let q = [x, shape.lateral * (r * r - z_e * z_e).sqrt(), z_e];
-        let nb = shape.normal_at(q);
-        // offset side: the pad point whose offset lands on z = z_e (bisection over the angle)
-        let f = |phi: f64| {
-            let p = shape.surface_point(x, phi);
-            p[2] + t * shape.normal_at(p)[2] - z_e
-        };
-        let (mut lo, mut hi) = (-std::f64::consts::FRAC_PI_2, 0.0);
-        if f(lo) > 0.0 || f(hi) < 0.0 {
-            continue;
-        }
-        for _ in 0..50 {
-            let mid = 0.5 * (lo + hi);
-            if f(mid) < 0.0 {
-                lo = mid
-            } else {
-                hi = mid
-            }
-        }
-        let no = shape.normal_at(shape.surface_point(x, lo));
-        any = true;
-        worst = worst.min((-nb[2]).asin().to_degrees()).min((-no[2]).asin().to_degrees());
+/// The pad point on the y ≥ 0 flank at design x whose `lift` along the normal (0: the pad itself,
+/// t: its offset) lands on the parting plane, by bisection over the cross-section angle.
+fn at_plane(shape: &Shape, f: &Frame, z_e: f64, x: f64, lift: f64) -> Option<P3> {
+    let g = |phi: f64| {
+        let q = shape.surface_point(x, phi);
+        f.to_mold(mesh::add(q, mesh::scale(shape.normal_at(q), lift)))[2] - z_e
+    };
+    let (mut lo, mut hi) = (-std::f64::consts::FRAC_PI_2, 0.0);
+    if g(lo) > 0.0 || g(hi) < 0.0 {
+        return None;
     }
-    any.then_some(worst)
-}
-
-/// Mid-line of the cavity's rim at the parting plane (plan points), from the mount end on the
-/// −y flank round the tip to the +y flank. The rim is the band between the pad and its offset;
-/// its horizontal width is t / cos(tilt) for the local normal tilt.
-pub fn rim_midline(l: &Layout, t: f64) -> Vec<[f64; 2]> {
-    let s = &l.shape;
-    let z = l.z_parting;
-    let mut side = Vec::new();
-    let n = 120;
-    // x where the pad's bottom meets the parting plane (the rim's tip end)
-    let (mut lo, mut hi) = (l.x_start, s.length);
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
-        if s.r(mid) > -z {
+        if g(mid) < 0.0 {
             lo = mid
         } else {
             hi = mid
         }
     }
-    let x_tip = lo;
-    for i in 0..n {
-        let x = l.x_start + 0.5 + (x_tip - l.x_start - 0.5) * i as f64 / n as f64;
-        let r = s.r(x);
-        if r <= -z {
-            continue;
+    Some(shape.surface_point(x, lo))
+}
+
+/// Downward tilt (deg below the plane square to the opening direction) of the exact normal along
+/// the cover's edge, on the pad (the core's side) and on the offset surface (the shell's side),
+/// minimised over the edge. None when the pad does not reach below the parting plane.
+pub fn edge_tilt_deg(shape: &Shape, f: &Frame, z_e: f64, x_start: f64, t: f64) -> Option<f64> {
+    let mut worst = f64::INFINITY;
+    let mut any = false;
+    let n = 200;
+    for i in 0..=n {
+        let x = x_start + (shape.length - x_start) * i as f64 / n as f64;
+        for lift in [0.0, t] {
+            if let Some(q) = at_plane(shape, f, z_e, x, lift) {
+                let nm = f.dir_to_mold(shape.normal_at(q));
+                any = true;
+                worst = worst.min((-nm[2]).clamp(-1.0, 1.0).asin().to_degrees());
+            }
         }
-        let q = [x, s.lateral * (r * r - z * z).sqrt(), z];
-        let nv = s.normal_at(q);
-        let h = (nv[0] * nv[0] + nv[1] * nv[1]).sqrt();
-        let w = t / h.max(1e-3);
-        side.push([q[0] + nv[0] / h * w / 2.0, q[1] + nv[1] / h * w / 2.0]);
     }
-    let nv = s.normal_at([x_tip, 0.0, z]);
-    let tip = [x_tip + t / nv[0].max(1e-3) / 2.0, 0.0];
+    any.then_some(worst)
+}
+
+/// Mid-line of the cavity's rim at the parting plane (plan points of the mold frame), from the
+/// mount end on the −y flank round the tip to the +y flank. The rim is the band between the pad
+/// and its offset; its horizontal width is t / cos(tilt) for the local normal tilt.
+pub fn rim_midline(l: &Layout, t: f64) -> Vec<[f64; 2]> {
+    let s = &l.shape;
+    let f = &l.frame;
+    let z = l.z_parting;
+    let mid = |q: P3| -> [f64; 2] {
+        let qm = f.to_mold(q);
+        let nv = f.dir_to_mold(s.normal_at(q));
+        let h = (nv[0] * nv[0] + nv[1] * nv[1]).sqrt().max(1e-3);
+        let w = t / h;
+        [qm[0] + nv[0] / h * w / 2.0, qm[1] + nv[1] / h * w / 2.0]
+    };
+    // the pad's bottom (y = 0) meets the parting plane here: the rim's tip end
+    let bottom = |x: f64| f.to_mold([x, 0.0, -s.r(x)])[2] - z;
+    let (mut lo, mut hi) = (l.x_start, s.length);
+    if bottom(lo) < 0.0 {
+        for _ in 0..60 {
+            let m = 0.5 * (lo + hi);
+            if bottom(m) < 0.0 {
+                lo = m
+            } else {
+                hi = m
+            }
+        }
+    }
+    let x_tip = lo;
+    let n = 120;
+    let side: Vec<[f64; 2]> = (0..n)
+        .filter_map(|i| {
+            let x = l.x_start + 1.0 + (x_tip - l.x_start - 1.0) * i as f64 / n as f64;
+            at_plane(s, f, z, x, 0.0).filter(|q| q[1] > 1e-6).map(mid)
+        })
+        .filter(|p| p[0] > l.x_start_m + 0.5)
+        .collect();
+    let tip = mid([x_tip, 0.0, -s.r(x_tip)]);
     let mut out: Vec<[f64; 2]> = side.iter().map(|p| [p[0], -p[1]]).collect();
     out.push(tip);
     out.extend(side.iter().rev().copied());
@@ -189,8 +258,8 @@ pub fn openings(p: &MoldParams, l: &Layout) -> ([f64; 2], Vec<[f64; 2]>) {
 /// Whether a point of the parting plane lies inside the cavity's rim (between the pad and its
 /// offset, on the covered part of the pad).
 pub fn in_rim(l: &Layout, t: f64, xy: [f64; 2]) -> bool {
-    let p = [xy[0], xy[1], l.z_parting - 1e-3];
-    xy[0] > l.x_start && !l.shape.inside(p) && l.shape.offset_distance(p, 0.0) < t
+    let p = l.frame.to_design([xy[0], xy[1], l.z_parting - 1e-3]);
+    xy[0] > l.x_start_m && !l.shape.inside(p) && l.shape.offset_distance(p, 0.0) < t
 }
 
 /// Rules that need the fingertip's shape. Returns (path, value, message) for each problem.
@@ -209,19 +278,26 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
     if t < m.min_detail_mm {
         push("cover.thickness_mm", t.to_string(), format!("thinner than printable detail ({} mm, mold.min_detail_mm): the mold's gap could not be printed", m.min_detail_mm));
     }
-    for (i, d) in l.domes.iter().enumerate() {
+    for (i, (d, sp)) in l.domes.iter().zip(&p.fingertip.sensors).enumerate() {
         if d.skin < m.min_detail_mm {
             push(
                 "cover.thickness_mm",
                 t.to_string(),
                 format!(
-                    "the dome cavity over sensor[{i}] (dome {} mm high on a seat {:.2} mm below the pad) leaves {:.2} mm of cover, less than {} mm, so it breaks through: use at least {:.2} mm",
+                    "the dome cavity over sensor[{i}] (dome {} mm high, {:.2} mm across on its flat seat) leaves {:.2} mm of cover where it is thinnest, less than {} mm, so it breaks through: use at least {:.2} mm",
                     d.depth,
-                    d.skin - t + d.depth,
+                    2.0 * d.r_base,
                     d.skin,
                     m.min_detail_mm,
                     t - d.skin + m.min_detail_mm
                 ),
+            );
+        }
+        if d.r_base > sp.flat_diameter_mm / 2.0 {
+            push(
+                "cover.dome_clearance_mm",
+                c.dome_clearance_mm.to_string(),
+                format!("the dome cavity over sensor[{i}] ({:.2} mm across) is wider than its flat seat ({} mm): use a clearance of at most {:.2} mm", 2.0 * d.r_base, sp.flat_diameter_mm, sp.flat_diameter_mm - 2.0 * d.dome_r),
             );
         }
         if d.r_top < d.dome_r {
@@ -263,7 +339,7 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
     }
     // a facet of the tessellation leans up to acos(1 − tol/R) from the exact surface's normal
     let facet = (1.0 - m.chordal_tolerance_mm / s.min_curvature_radius()).acos().to_degrees();
-    match edge_tilt_deg(s, l.z_parting, l.x_start, t) {
+    match edge_tilt_deg(s, &l.frame, l.z_parting, l.x_start, t) {
         Some(tilt) if tilt + 1e-9 < m.draft_deg + facet => push(
             "mold.parting_below_midplane_mm",
             m.parting_below_midplane_mm.to_string(),
@@ -282,12 +358,16 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
         let (mut xmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
         for k in 0..36 {
             let a = 2.0 * std::f64::consts::PI * k as f64 / 36.0;
-            let q = mesh::add(st.flat_center, mesh::add(mesh::scale(u, rf * a.cos()), mesh::scale(v, rf * a.sin())));
+            let q = l.frame.to_mold(mesh::add(st.flat_center, mesh::add(mesh::scale(u, rf * a.cos()), mesh::scale(v, rf * a.sin()))));
             xmin = xmin.min(q[0]);
             zmax = zmax.max(q[2]);
         }
-        if xmin < l.x_start + 0.5 {
-            push("cover.from_tip_mm", c.from_tip_mm.to_string(), format!("the cover ends at x = {:.2} mm but sensor[{i}]'s flat seat reaches x = {xmin:.2} mm: cover at least {:.1} mm from the tip", l.x_start, s.length - xmin + 0.5));
+        if xmin < l.x_start_m + 0.5 {
+            push(
+                "cover.from_tip_mm",
+                c.from_tip_mm.to_string(),
+                format!("the cover ends at x = {:.2} mm but sensor[{i}]'s flat seat reaches x = {xmin:.2} mm (mold frame): cover at least {:.1} mm from the tip", l.x_start_m, c.from_tip_mm + (l.x_start_m - xmin) + 0.5),
+            );
         }
         if zmax > l.z_parting - 0.2 {
             push(

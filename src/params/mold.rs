@@ -28,6 +28,7 @@ pub struct RawCover {
 pub struct RawMold {
     pub wall_thickness_mm: Option<f64>,
     pub parting_below_midplane_mm: Option<f64>,
+    pub demolding_tilt_deg: Option<f64>,
     pub draft_deg: Option<f64>,
     pub key_count: Option<i64>,
     pub key_diameter_mm: Option<f64>,
@@ -57,7 +58,7 @@ static COVER_SCHEMA: Schema = Schema {
 };
 static MOLD_SCHEMA: Schema = Schema {
     fields: &[
-        "wall_thickness_mm", "parting_below_midplane_mm", "draft_deg", "key_count", "key_diameter_mm", "key_height_mm", "key_clearance_mm", "sprue_diameter_mm",
+        "wall_thickness_mm", "parting_below_midplane_mm", "demolding_tilt_deg", "draft_deg", "key_count", "key_diameter_mm", "key_height_mm", "key_clearance_mm", "sprue_diameter_mm",
         "sprue_taper_deg", "sprue_xy_mm", "vent_count", "vent_diameter_mm", "material", "min_detail_mm", "min_wall_mm", "density_g_cm3", "chordal_tolerance_mm",
     ],
     tables: &[],
@@ -116,6 +117,10 @@ pub struct Cover {
 pub struct Mold {
     pub wall_thickness_mm: f64,
     pub parting_below_midplane_mm: f64,
+    /// The opening direction, tilted within the finger's mid-plane (degrees): the direction the
+    /// shell comes off (the pad's side) leans this much toward the tip; the core comes off the
+    /// opposite way and the parting plane is square to it.
+    pub demolding_tilt_deg: f64,
     pub draft_deg: f64,
     pub key_count: usize,
     pub key_diameter_mm: f64,
@@ -277,6 +282,7 @@ fn count(c: &mut Collector, v: Option<i64>, default: i64, path: &str, lo: i64, h
 fn mold_params(c: &mut Collector, r: &RawMold) -> Option<Mold> {
     let wall = c.or_within(r.wall_thickness_mm, 3.0, "mold.wall_thickness_mm", 0.8, 30.0);
     let parting = c.or_within(r.parting_below_midplane_mm, 1.0, "mold.parting_below_midplane_mm", 0.0, 50.0);
+    let tilt = c.or_within(r.demolding_tilt_deg, 0.0, "mold.demolding_tilt_deg", -20.0, 20.0);
     let draft = c.or_within(r.draft_deg, 1.0, "mold.draft_deg", 0.0, 15.0);
     let keys = count(c, r.key_count, 3, "mold.key_count", 2, 4);
     let key_d = c.or_within(r.key_diameter_mm, 4.0, "mold.key_diameter_mm", 1.0, 20.0);
@@ -315,6 +321,7 @@ fn mold_params(c: &mut Collector, r: &RawMold) -> Option<Mold> {
     Some(Mold {
         wall_thickness_mm: wall?,
         parting_below_midplane_mm: parting?,
+        demolding_tilt_deg: tilt?,
         draft_deg: draft?,
         key_count: keys?,
         key_diameter_mm: key_d?,
