@@ -1,6 +1,8 @@
 //! Property tests: random parameter files. Valid ones build into one closed body of the expected
 //! genus that passes every check; invalid ones give input errors naming a path — never a panic.
 
+mod common;
+
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -109,10 +111,7 @@ fn random_parameter_sets_build_valid_meshes_or_clear_errors() {
                     valid.fetch_add(1, Ordering::Relaxed);
                 }
                 Err(Error::Input(problems)) => {
-                    prop_assert!(!problems.0.is_empty());
-                    for pr in &problems.0 {
-                        prop_assert!(!pr.path.is_empty() && !pr.message.is_empty());
-                    }
+                    common::rejected_clearly(&problems)?;
                     invalid.fetch_add(1, Ordering::Relaxed);
                 }
                 Err(e) => return Err(TestCaseError::fail(format!("unexpected error kind: {e}"))),
@@ -120,10 +119,7 @@ fn random_parameter_sets_build_valid_meshes_or_clear_errors() {
             Ok(())
         })
         .unwrap();
-    let (v, i) = (valid.load(Ordering::Relaxed), invalid.load(Ordering::Relaxed));
-    println!("random fingertips: {v} valid built and checked, {i} rejected with input errors");
-    assert!(v >= 200 || cases < 800, "only {v} valid random parameter sets of {cases}; widen the generator");
-    assert!(i >= 10 || cases < 800, "the generator must also produce invalid sets ({i})");
+    common::enough_of_both("fingertips", valid.load(Ordering::Relaxed), invalid.load(Ordering::Relaxed), cases, 800, 200, 10);
 }
 
 #[test]

@@ -2,6 +2,8 @@
 //! input errors that name their keys, or builds into pieces and a cover that pass every
 //! assembled-mold check and every mesh check — never a geometry error, never a panic.
 
+mod common;
+
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use std::path::Path;
@@ -96,10 +98,7 @@ fn random_molds_build_and_pass_every_check_or_are_rejected_clearly() {
                     valid.fetch_add(1, Ordering::Relaxed);
                 }
                 Err(Error::Input(problems)) => {
-                    prop_assert!(!problems.0.is_empty());
-                    for pr in &problems.0 {
-                        prop_assert!(!pr.path.is_empty() && !pr.message.is_empty());
-                    }
+                    common::rejected_clearly(&problems)?;
                     invalid.fetch_add(1, Ordering::Relaxed);
                 }
                 Err(e) => return Err(TestCaseError::fail(format!("unexpected error kind: {e}\n{text}"))),
@@ -107,8 +106,5 @@ fn random_molds_build_and_pass_every_check_or_are_rejected_clearly() {
             Ok(())
         })
         .unwrap();
-    let (v, i) = (valid.load(Ordering::Relaxed), invalid.load(Ordering::Relaxed));
-    println!("random molds: {v} valid built and checked, {i} rejected with input errors");
-    assert!(v >= 20 || cases < 80, "only {v} valid random molds of {cases}; widen the generator");
-    assert!(i >= 5 || cases < 80, "the generator must also produce invalid molds ({i})");
+    common::enough_of_both("molds", valid.load(Ordering::Relaxed), invalid.load(Ordering::Relaxed), cases, 80, 20, 5);
 }

@@ -1,0 +1,22 @@
+//! Helpers shared by the property tests.
+
+use proptest::prelude::*;
+use proptest::test_runner::TestCaseError;
+use tipforge::error::Problems;
+
+/// A rejected parameter file must say what is wrong: at least one problem, each with its TOML
+/// path and a message.
+pub fn rejected_clearly(problems: &Problems) -> Result<(), TestCaseError> {
+    prop_assert!(!problems.0.is_empty());
+    for pr in &problems.0 {
+        prop_assert!(!pr.path.is_empty() && !pr.message.is_empty());
+    }
+    Ok(())
+}
+
+/// The generator must produce enough of both kinds to mean something (checked at full size).
+pub fn enough_of_both(what: &str, valid: usize, invalid: usize, cases: u32, full: u32, min_valid: usize, min_invalid: usize) {
+    println!("random {what}: {valid} valid built and checked, {invalid} rejected with input errors");
+    assert!(valid >= min_valid || cases < full, "only {valid} valid random {what} of {cases}; widen the generator");
+    assert!(invalid >= min_invalid || cases < full, "the generator must also produce invalid {what} ({invalid})");
+}
