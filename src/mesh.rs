@@ -211,6 +211,20 @@ pub fn segments(r: f64, tol: f64) -> usize {
     n.max(12).div_ceil(4) * 4
 }
 
+/// Where a predicate turns from true to false between `lo` (true) and `hi` (false): bisection,
+/// `iters` halvings; returns the last point where it held.
+pub fn bisect(mut lo: f64, mut hi: f64, iters: usize, holds: impl Fn(f64) -> bool) -> f64 {
+    for _ in 0..iters {
+        let mid = 0.5 * (lo + hi);
+        if holds(mid) {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    lo
+}
+
 pub fn v3(p: P3) -> Vec3 {
     Vec3::new(p[0], p[1], p[2])
 }

@@ -118,17 +118,7 @@ impl Shape {
         let mut t = 0.0;
         while t < max {
             if !self.inside(mesh::add(p, mesh::scale(dir, t + step))) {
-                // refine
-                let (mut lo, mut hi) = (t, t + step);
-                for _ in 0..30 {
-                    let mid = 0.5 * (lo + hi);
-                    if self.inside(mesh::add(p, mesh::scale(dir, mid))) {
-                        lo = mid
-                    } else {
-                        hi = mid
-                    }
-                }
-                return lo;
+                return mesh::bisect(t, t + step, 30, |d| self.inside(mesh::add(p, mesh::scale(dir, d))));
             }
             t += step;
         }

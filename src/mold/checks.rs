@@ -103,12 +103,11 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     let mut fill = vec![a.core.clone(), a.shell.clone()];
     fill.extend(a.holes.iter().cloned()); // key clearances are closed pockets, not the cavity
     let fill = Solid::union_all(&fill).expect("pieces");
-    let regions = |s: Solid| -> Vec<(f64, (P3, P3))> { s.0.decompose().into_iter().map(Solid).filter(|c| c.volume() > 1e-6).map(|c| (c.volume(), c.bbox())).collect() };
-    let open = regions(moldbox.difference(&fill));
+    let regions = |s: &Solid| -> Vec<Solid> { s.0.decompose().into_iter().map(Solid).filter(|c| c.volume() > 1e-6).collect() };
+    let open = regions(&moldbox.difference(&fill));
     let w = a.z_top - a.z_parting;
     let mut plugs = Vec::new();
-    let st = m.sprue_taper_deg.to_radians().tan();
-    let r_sprue = a.sprue.1 + (w + 2.0) * st + 0.2;
+    let r_sprue = super::conforming::sprue_radius(m, w + 2.0) + 0.2;
     plugs.push(Solid::cylinder([a.sprue.0[0], a.sprue.0[1], a.z_parting], [0.0, 0.0, 1.0], w + 3.0, r_sprue, r_sprue, 48));
     for (xy, r) in &a.vents {
         plugs.push(Solid::cylinder([xy[0], xy[1], a.z_parting], [0.0, 0.0, 1.0], w + 3.0, r + 0.2, r + 0.2, 24));
@@ -133,15 +132,14 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     let top_band = band(&[(2, true)]);
     let all_faces = band(&[(0, false), (0, true), (1, false), (1, true), (2, false), (2, true)]);
     let sealed_solid = moldbox.difference(&fill.union(&Solid::union_all(&plugs).expect("plugs")));
-    let sealed = regions(sealed_solid.clone());
+    let sealed: Vec<f64> = regions(&sealed_solid).iter().map(Solid::volume).collect();
     let reaching_out = sealed_solid.intersection(&all_faces).volume();
     let cavity_vol = a.cavity.volume();
-    let open_regions: Vec<Solid> = moldbox.difference(&fill).0.decompose().into_iter().map(Solid).filter(|c| c.volume() > 1e-6).collect();
-    let open_ok = open.len() == 1 && open_regions.first().is_some_and(|r| r.intersection(&top_band).volume() > 1e-4);
+    let open_ok = open.len() == 1 && open[0].intersection(&top_band).volume() > 1e-4;
     if !open_ok {
         out.push(v(name, "the cavity must reach the outside through the sprue and vents", format!("{} air regions inside the mold with the openings open (expected 1 reaching the top face)", open.len())));
     }
-    let enclosed = if sealed.len() == 1 { sealed[0].0 } else { f64::NAN };
+    let enclosed = if sealed.len() == 1 { sealed[0] } else { f64::NAN };
     if sealed.len() != 1 || reaching_out > 1e-4 || ((enclosed - cavity_vol) / cavity_vol).abs() > 1e-3 {
         out.push(v(
             name,

@@ -56,6 +56,11 @@ fn core_surface(p: &MoldParams, l: &Layout, body: &Solid, tol: f64) -> Solid {
     Solid::union_all(&parts).expect("the pad")
 }
 
+/// The sprue's radius `above` mm over the parting plane (it widens upward by its taper).
+pub fn sprue_radius(m: &crate::params::mold::Mold, above: f64) -> f64 {
+    (m.sprue_diameter_mm / 2.0 + above * m.sprue_taper_deg.to_radians().tan()).max(0.05)
+}
+
 pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let name = p.name.as_str();
     let l = layout(p).map_err(|e| Error::geometry(name, e))?;
@@ -117,11 +122,10 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let grow = |q: [f64; 2]| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1])];
     let (sprue_xy, vent_xy): ([f64; 2], Vec<[f64; 2]>) = (grow(sprue_xy), vent_xy.into_iter().map(grow).collect());
     let (kr, kc) = (m.key_diameter_mm / 2.0, m.key_clearance_mm);
-    let half_y = lo[1].abs().max(hi[1].abs()) + 2.0 * w + 2.0 * (kr + kc);
     // the flange must hold the sprue (it widens to its top) and the vents with a wall round them
-    let r_sprue_top = m.sprue_diameter_mm / 2.0 + (w + 1.0) * m.sprue_taper_deg.to_radians().tan();
+    let r_sprue_top = sprue_radius(m, w + 1.0);
+    let half_y = (lo[1].abs().max(hi[1].abs()) + 2.0 * w + 2.0 * (kr + kc)).max(sprue_xy[1].abs() + r_sprue_top + m.min_wall_mm);
     let x_hi = (hi[0] + w).max(sprue_xy[0] + r_sprue_top + m.min_wall_mm).max(vent_xy.iter().map(|v| v[0] + m.vent_diameter_mm / 2.0 + m.min_wall_mm).fold(f64::NEG_INFINITY, f64::max));
-    let half_y = half_y.max(sprue_xy[1].abs() + r_sprue_top + m.min_wall_mm);
     let z_lo = lo[2] - w;
     let z_top = ze + w;
 
@@ -140,8 +144,7 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
 
     // sprue (widening upward) and vents through the flange
     let rs = m.sprue_diameter_mm / 2.0;
-    let st = m.sprue_taper_deg.to_radians().tan();
-    let mut openings_cut = vec![Solid::cylinder([sprue_xy[0], sprue_xy[1], ze - 1.0], UP, w + 2.0, (rs - st).max(0.05), rs + (w + 1.0) * st, segments(rs + w * st, tol))];
+    let mut openings_cut = vec![Solid::cylinder([sprue_xy[0], sprue_xy[1], ze - 1.0], UP, w + 2.0, sprue_radius(m, -1.0), r_sprue_top, segments(sprue_radius(m, w), tol))];
     let rv = m.vent_diameter_mm / 2.0;
     for v in &vent_xy {
         openings_cut.push(Solid::cylinder([v[0], v[1], ze - 1.0], UP, w + 2.0, rv, rv, segments(rv, tol)));

@@ -157,19 +157,11 @@ fn at_plane(shape: &Shape, f: &Frame, z_e: f64, x: f64, lift: f64) -> Option<P3>
         let q = shape.surface_point(x, phi);
         f.to_mold(mesh::add(q, mesh::scale(shape.normal_at(q), lift)))[2] - z_e
     };
-    let (mut lo, mut hi) = (-std::f64::consts::FRAC_PI_2, 0.0);
+    let (lo, hi) = (-std::f64::consts::FRAC_PI_2, 0.0);
     if g(lo) > 0.0 || g(hi) < 0.0 {
         return None;
     }
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if g(mid) < 0.0 {
-            lo = mid
-        } else {
-            hi = mid
-        }
-    }
-    Some(shape.surface_point(x, lo))
+    Some(shape.surface_point(x, mesh::bisect(lo, hi, 60, |phi| g(phi) < 0.0)))
 }
 
 /// Downward tilt (deg below the plane square to the opening direction) of the exact normal along
@@ -208,18 +200,7 @@ pub fn rim_midline(l: &Layout, t: f64) -> Vec<[f64; 2]> {
     };
     // the pad's bottom (y = 0) meets the parting plane here: the rim's tip end
     let bottom = |x: f64| f.to_mold([x, 0.0, -s.r(x)])[2] - z;
-    let (mut lo, mut hi) = (l.x_start, s.length);
-    if bottom(lo) < 0.0 {
-        for _ in 0..60 {
-            let m = 0.5 * (lo + hi);
-            if bottom(m) < 0.0 {
-                lo = m
-            } else {
-                hi = m
-            }
-        }
-    }
-    let x_tip = lo;
+    let x_tip = if bottom(l.x_start) < 0.0 { mesh::bisect(l.x_start, s.length, 60, |x| bottom(x) < 0.0) } else { l.x_start };
     let n = 120;
     let side: Vec<[f64; 2]> = (0..n)
         .filter_map(|i| {
