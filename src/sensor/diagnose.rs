@@ -108,22 +108,38 @@ struct Config {
     clip: Option<f64>,
     /// With a clip: the time constant and onset of each step the clip shapes, as
     /// ((trial, segment), τ, onset). The clipped shape biases those steps' own first-order fits.
-    tau_fixed: Vec<((usize, usize), f64, f64)>,
+    tau_fixed: Vec<FixedStep>,
     /// With a clip: the (trial, segment) steps that fall from a clipped load. The signal leaves the
     /// clip on a first-order fall from the clip itself (their part-1 fits are of that fall), so they
     /// restart at the clip: v = L_next·u + clip·(1 − u).
     restart: Vec<(usize, usize)>,
 }
 
+/// A step whose time constant and onset are set, not taken from its own part-1 fit.
+#[derive(Debug, Clone, PartialEq)]
+struct FixedStep {
+    /// (trial, segment)
+    at: (usize, usize),
+    tau_s: f64,
+    t0_s: f64,
+}
+
+/// The steps a clip shapes (each as (trial, segment)) and the units its evidence lies in.
+struct ClipSteps {
+    into: Vec<(usize, usize)>,
+    from: Vec<(usize, usize)>,
+    units: Vec<(usize, usize)>,
+}
+
 impl Config {
-    fn fixed(&self, i: usize, s: usize) -> Option<&((usize, usize), f64, f64)> {
-        self.tau_fixed.iter().find(|x| x.0 == (i, s))
+    fn fixed(&self, i: usize, s: usize) -> Option<&FixedStep> {
+        self.tau_fixed.iter().find(|x| x.at == (i, s))
     }
     fn tau_of(&self, i: usize, s: usize, sg: &Seg) -> f64 {
-        self.fixed(i, s).map(|x| x.1).unwrap_or(sg.tau)
+        self.fixed(i, s).map(|x| x.tau_s).unwrap_or(sg.tau)
     }
     fn t0_of(&self, i: usize, s: usize, sg: &Seg) -> f64 {
-        self.fixed(i, s).map(|x| x.2).unwrap_or(sg.t0)
+        self.fixed(i, s).map(|x| x.t0_s).unwrap_or(sg.t0)
     }
 }
 
@@ -552,7 +568,7 @@ fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]) -> f64 {
 /// The steps a clip shapes, per (trial, segment): those rising into it ("into") and those
 /// starting from a clipped load ("from"), and the (trial, segment) units where a clip's evidence
 /// lies (units count segments from 1).
-fn clipped_segments(trials: &[Trial], clip: f64) -> (Vec<(usize, usize)>, Vec<(usize, usize)>, Vec<(usize, usize)>) {
+fn clipped_segments(trials: &[Trial], clip: f64) -> ClipSteps {
     let (mut into, mut from) = (Vec::new(), Vec::new());
     for (k, tr) in trials.iter().enumerate() {
         let at = 0.25 * tr.sigma.max(1e-12);
@@ -571,7 +587,7 @@ fn clipped_segments(trials: &[Trial], clip: f64) -> (Vec<(usize, usize)>, Vec<(u
     // the evidence: the rising steps, whose shape the clip changes (the falling steps' onsets are
     // moved so the clip leaves them as they were)
     let units = into.iter().map(|&(k, s)| (k, s + 1)).collect();
-    (into, from, units)
+    ClipSteps { into, from, units }
 }
 
 /// τ of the other steps as a straight line in the load (least squares), as the first-order
@@ -626,17 +642,16 @@ fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
 /// Time constants and onsets of the steps rising into a clip: τ from the other steps' τ line,
 /// onset from a local fit below the clip (the part-1 fit of the clipped shape is biased). The steps
 /// falling from it restart at the clip instead (`Config::restart`).
-fn clip_fixes(trials: &[Trial], cfg: &Config, into: &[(usize, usize)], from: &[(usize, usize)]) -> Vec<((usize, usize), f64, f64)> {
-    let Some(clip) = cfg.clip else { return vec![] };
-    let Some((a, b)) = tau_line(trials, &[into, from].concat()) else { return vec![] };
-    let fixes: Vec<((usize, usize), f64, f64)> = into
+fn clip_fixes(trials: &[Trial], clip: f64, steps: &ClipSteps) -> Vec<FixedStep> {
+    let Some((a, b)) = tau_line(trials, &[steps.into.as_slice(), steps.from.as_slice()].concat()) else { return vec![] };
+    steps
+        .into
         .iter()
         .map(|&(k, s)| {
-            let tau = (a + b * trials[k].segs[s].load).max(1e-3);
-            ((k, s), tau, rising_onset(&trials[k], s, tau, clip))
+            let tau_s = (a + b * trials[k].segs[s].load).max(1e-3);
+            FixedStep { at: (k, s), tau_s, t0_s: rising_onset(&trials[k], s, tau_s, clip) }
         })
-        .collect();
-    fixes
+        .collect()
 }
 
 fn clip_level(trials: &[Trial]) -> Option<f64> {
@@ -783,9 +798,9 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     let clean_cfg = base_cfg.clone();
     let (clean, xc) = if has_spikes { score(&d, &trials, &clean_cfg, &hat)? } else { (base.clone(), xb.clone()) };
     let clip = clip_level(&trials);
-    let (clip_into, clip_from, clipped_units) = match clip {
+    let clip_steps = match clip {
         Some(c) => clipped_segments(&trials, c),
-        None => (vec![], vec![], vec![]),
+        None => ClipSteps { into: vec![], from: vec![], units: vec![] },
     };
     let med_tau = {
         let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
@@ -812,8 +827,8 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
                     let mut c = cur.clone();
                     c.effects.push(e);
                     c.clip = clip;
-                    c.tau_fixed = clip_fixes(&trials, &c, &clip_into, &clip_from);
-                    c.restart = clip_from.clone();
+                    c.tau_fixed = clip.map(|level| clip_fixes(&trials, level, &clip_steps)).unwrap_or_default();
+                    c.restart = clip_steps.from.clone();
                     vec![c]
                 }
                 _ => {
@@ -835,7 +850,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
             let dbic = s.bic - cur_score.bic;
             // a clip can only change the units that reach it: its evidence is tested there
-            let z = if e == Effect::Saturation { paired_z_on(&cur_score, &s, &clipped_units) } else { paired_z(&cur_score.units, &s.units) };
+            let z = if e == Effect::Saturation { paired_z_on(&cur_score, &s, &clip_steps.units) } else { paired_z(&cur_score.units, &s.units) };
             decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
             if gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
                 best = Some((e, c, s, x));
@@ -884,7 +899,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
                 c.restart.clear();
             }
             let Some((s_wo, x_wo)) = score(&d, &trials, &c, &hat) else { continue };
-            let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clipped_units) } else { paired_z(&s_wo.units, &cur_score.units) };
+            let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clip_steps.units) } else { paired_z(&s_wo.units, &cur_score.units) };
             let dbic = cur_score.bic - s_wo.bic;
             let passes = z >= MIN_Z && dbic <= MIN_DBIC;
             if !passes && worst.as_ref().is_none_or(|w| z < w.4) {
