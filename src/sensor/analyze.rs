@@ -1,6 +1,7 @@
 //! CSV → recording → preprocessing → step fits (lsq and/or the paper's method) → fashion curves →
 //! one report. Diagnosis, tables and plots read the report only.
 
+use super::catalogue::handling_spikes::{self, EdgeStep};
 use super::fashion::{self, Fashion, Readout};
 use super::fit::{self, PaperFit, StepData, StepFit};
 use super::preprocess::{self, Phase, Series, SpikeWindow, Step};
@@ -88,16 +89,21 @@ pub fn readout(rec: &Recording) -> Option<Readout> {
 
 /// Preprocesses every recording and groups the steps across trials by (phase, index).
 pub fn prepare(recs: &[Recording], opts: &Options) -> (Prepared, Vec<RecordingInfo>) {
+    prepare_with(recs, opts, &vec![Vec::new(); recs.len()])
+}
+
+/// As [`prepare`], with further spike windows per recording excluded.
+fn prepare_with(recs: &[Recording], opts: &Options, extra: &[Vec<SpikeWindow>]) -> (Prepared, Vec<RecordingInfo>) {
     let mut infos = Vec::new();
     let mut series = Vec::new();
     let mut steps_all = Vec::new();
-    for r in recs {
+    for (ri, r) in recs.iter().enumerate() {
         let mut o = opts.pre.clone();
         // the paper's filter is a 10-sample block mean at 100 Hz; at other rates it stays off
         if (r.sample_rate_hz() - 100.0).abs() > 5.0 {
             o.mean_filter = false;
         }
-        let (s, spikes) = preprocess::prepare(r, &o);
+        let (s, spikes) = preprocess::prepare_with(r, &o, &extra[ri]);
         let (steps, mut notes) = preprocess::segment(r, &o);
         if !o.mean_filter && opts.pre.mean_filter {
             notes.push(format!("mean filter off: the recording is at {:.2} Hz, not 100 Hz", r.sample_rate_hz()));
@@ -139,8 +145,52 @@ fn weight_of(kind: ProtocolKind, s: &Step) -> (f64, &'static str) {
     }
 }
 
+/// Handling spikes at the steps' edges, from the fitted steps (a second look after part 1's
+/// running-median detector): per recording, the windows not already excluded.
+fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[StepReport], infos: &[RecordingInfo]) -> Vec<Vec<SpikeWindow>> {
+    recs.iter()
+        .enumerate()
+        .map(|(ri, rec)| {
+            if !preprocess::by_hand(rec, &opts.pre) {
+                return Vec::new();
+            }
+            let own = &prep.steps[ri];
+            let edges: Vec<EdgeStep> = own
+                .iter()
+                .enumerate()
+                .filter_map(|(k, st)| {
+                    let f = steps.iter().find(|s| s.phase == st.phase && s.index == st.index)?.lsq.as_ref()?;
+                    let t0 = f.trials.iter().find(|tp| tp.recording == rec.source)?.t0;
+                    let from = (st.t_log - preprocess::HANDLING_WINDOW_S).max(if k > 0 { own[k - 1].t_log + 0.5 * (st.t_log - own[k - 1].t_log) } else { f64::NEG_INFINITY });
+                    let to = (st.t_log + preprocess::HANDLING_WINDOW_S).min(st.t_end);
+                    Some(EdgeStep { t0_s: t0, tau_s: f.tau_s, from_s: from, to_s: to })
+                })
+                .collect();
+            let sigma = preprocess::noise_sigma(&rec.response);
+            let known = &infos[ri].spikes;
+            handling_spikes::detect(&rec.time_s, &rec.response, &edges, sigma, opts.pre.max_spike_s)
+                .into_iter()
+                .filter(|w| !known.iter().any(|k| k.start_s <= w.end_s && w.start_s <= k.end_s))
+                .collect()
+        })
+        .collect()
+}
+
 pub fn analyze(recs: &[Recording], opts: &Options) -> (Report, Prepared) {
     let (prep, infos) = prepare(recs, opts);
+    let steps = fit_steps(recs, opts, &prep);
+    let extra = if opts.method != Method::Paper { edge_spikes(recs, opts, &prep, &steps, &infos) } else { vec![Vec::new(); recs.len()] };
+    let (prep, infos, steps) = if extra.iter().any(|e| !e.is_empty()) {
+        let (p, i) = prepare_with(recs, opts, &extra);
+        let s = fit_steps(recs, opts, &p);
+        (p, i, s)
+    } else {
+        (prep, infos, steps)
+    };
+    finish_report(recs, opts, prep, infos, steps)
+}
+
+fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepReport> {
     let kind = recs.first().map(|r| r.protocol_kind).unwrap_or(ProtocolKind::Input);
     let mut steps = Vec::new();
     for g in &prep.groups {
@@ -168,6 +218,11 @@ pub fn analyze(recs: &[Recording], opts: &Options) -> (Report, Prepared) {
             trials: g.trials.len(),
         });
     }
+    steps
+}
+
+fn finish_report(recs: &[Recording], opts: &Options, prep: Prepared, infos: Vec<RecordingInfo>, steps: Vec<StepReport>) -> (Report, Prepared) {
+    let kind = recs.first().map(|r| r.protocol_kind).unwrap_or(ProtocolKind::Input);
     let mut notes = Vec::new();
     let fashion = match recs.first().and_then(readout) {
         Some(ro) if opts.method != Method::Paper => {

@@ -163,6 +163,9 @@ struct Design {
     loads: Vec<f64>,
     n_trials: usize,
     n_keys: usize,
+    /// The (trial, segment) steps whose onset is refitted (a handling spike was cut from their
+    /// edge, taking the samples that fixed it in part 1), each with its column among them.
+    refit_onset: Vec<(usize, usize)>,
     /// The simulator gives the first-order part: no level or τ columns.
     prior: bool,
 }
@@ -171,8 +174,16 @@ impl Design {
     fn n_levels(&self) -> usize {
         self.n_trials + if self.prior { 0 } else { self.loads.len().saturating_sub(1) }
     }
+    /// Columns of the first-order shape corrections (τ per step, onsets of the steps cut by spikes).
+    fn n_shape(&self, cfg: &Config) -> usize {
+        if cfg.tau_free && !self.prior {
+            self.n_keys + self.refit_onset.len()
+        } else {
+            0
+        }
+    }
     fn ncols(&self, cfg: &Config) -> usize {
-        self.n_levels() + if cfg.tau_free && !self.prior { self.n_keys } else { 0 } + cfg.effects.iter().filter(|e| **e != Effect::Saturation).count()
+        self.n_levels() + self.n_shape(cfg) + cfg.effects.iter().filter(|e| **e != Effect::Saturation).count()
     }
     /// The design row of trial `i` at time t.
     fn row(&self, i: usize, tr: &Trial, t: f64, cfg: &Config, hat: &Hat, out: &mut Vec<f64>) {
@@ -206,9 +217,14 @@ impl Design {
                     continue;
                 }
                 let x = (t - sg.t0) / sg.tau;
-                out[col + sg.key] += (hat.level_of(sg.load) - hat.level_of(sg.prev)) * x * (-x).exp();
+                let dv = hat.level_of(sg.load) - hat.level_of(sg.prev);
+                out[col + sg.key] += dv * x * (-x).exp();
+                if let Some(q) = self.refit_onset.iter().position(|&k| k == (i, s)) {
+                    // ∂/∂t0 of dv·(1 − e^(−(t − t0)/τ)): the coefficient is the onset's shift (s)
+                    out[col + self.n_keys + q] = -dv * (-x).exp() / sg.tau;
+                }
             }
-            col += self.n_keys;
+            col += self.n_keys + self.refit_onset.len();
         }
         let cur = active.last().copied();
         let l0 = hat.level_of(self.loads[0]);
@@ -749,11 +765,25 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
 /// onsets found in the data) is the baseline; only per-trial offsets and catalogue terms are fitted.
 pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Diagnosis> {
     let (report, prep) = analyze::analyze(recs, opts);
-    let mut trials = trials_from(&report, &prep, recs, if opts.pre.mean_filter { opts.pre.block.max(1) } else { 1 });
+    let block = if opts.pre.mean_filter { opts.pre.block.max(1) } else { 1 };
+    let mut trials = trials_from(&report, &prep, recs, block);
+    // the baseline is the paper's model fitted to the data as given: with handling spikes found,
+    // its steps (onsets, time constants) are the part-1 fits of the series with the spikes left in
+    let has_spikes = report.recordings.iter().any(|r| !r.spikes.is_empty());
+    let mut given_trials: Option<Vec<Trial>> = if has_spikes {
+        let mut o = opts.clone();
+        o.pre.handling = false;
+        let (rep_g, prep_g) = analyze::analyze(recs, &o);
+        let g = trials_from(&rep_g, &prep_g, recs, block);
+        let same = g.len() == trials.len() && g.iter().zip(&trials).all(|(a, b)| a.segs.len() == b.segs.len() && a.segs.iter().zip(&b.segs).all(|(x, y)| x.key == y.key));
+        same.then_some(g)
+    } else {
+        None
+    };
     if let Some(sb) = sim {
         let kind = recs.first()?.protocol_kind;
         let force = |load: f64| kind.grams(load).map(|g| (g + sb.preload_g) / 1000.0 * super::sim::G_N_PER_KG);
-        for tr in &mut trials {
+        for tr in trials.iter_mut().chain(given_trials.iter_mut().flatten()) {
             let f0 = force(tr.segs.first().map(|s| s.prev).unwrap_or(0.0))?;
             tr.prior0 = Some(sb.sensor.v_eq(f0));
             for sg in &mut tr.segs {
@@ -770,7 +800,16 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         return None;
     }
     let n_keys = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.key + 1)).max().unwrap_or(0);
-    let d = Design { loads: loads.clone(), n_trials: trials.len(), n_keys, prior: sim.is_some() };
+    // steps whose edge lost a handling spike: their onsets are refitted with the shared levels
+    let refit_onset: Vec<(usize, usize)> = trials
+        .iter()
+        .enumerate()
+        .flat_map(|(k, tr)| {
+            let spikes = report.recordings.iter().find(|r| r.source == tr.name).map(|r| r.spikes.clone()).unwrap_or_default();
+            tr.segs.iter().enumerate().filter(move |(_, sg)| spikes.iter().any(|w| w.end_s >= sg.t0 - 0.5 && w.start_s <= sg.t0 + 1.0)).map(move |(s, _)| (k, s)).collect::<Vec<_>>()
+        })
+        .collect();
+    let d = Design { loads: loads.clone(), n_trials: trials.len(), n_keys, refit_onset, prior: sim.is_some() };
     // levels per load for the terms built on them (two-stage): from a first fit, or the simulator's
     let hat = match sim {
         Some(sb) => {
@@ -792,9 +831,13 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, clip: None, tau_fixed: vec![], restart: vec![] };
     // (fitted to the data as given, scored on the data without the handling spikes; the diagnosis
     // works on the latter, and the spikes are reported and excluded below)
-    let given: Vec<Trial> = trials.iter().map(|tr| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), ..tr.clone() }).collect();
-    let has_spikes = trials.iter().any(|tr| tr.t != tr.given_t || tr.v != tr.given_v);
-    let (base, xb) = score_on(&d, if has_spikes { &given } else { &trials }, &trials, &base_cfg, &hat)?;
+    // fitted to the series as given (with the steps fitted to it), scored on the series without
+    // the spikes (with the same steps)
+    let base_steps = |tr: &Trial, k: usize| given_trials.as_ref().map(|g| g[k].segs.clone()).unwrap_or_else(|| tr.segs.clone());
+    let given: Vec<Trial> = trials.iter().enumerate().map(|(k, tr)| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), segs: base_steps(tr, k), ..tr.clone() }).collect();
+    let base_eval: Vec<Trial> = trials.iter().enumerate().map(|(k, tr)| Trial { segs: base_steps(tr, k), ..tr.clone() }).collect();
+    let has_spikes = has_spikes || trials.iter().any(|tr| tr.t != tr.given_t || tr.v != tr.given_v);
+    let (base, xb) = score_on(&d, if has_spikes { &given } else { &trials }, &base_eval, &base_cfg, &hat)?;
     let clean_cfg = base_cfg.clone();
     let (clean, xc) = if has_spikes { score(&d, &trials, &clean_cfg, &hat)? } else { (base.clone(), xb.clone()) };
     let clip = clip_level(&trials);
@@ -863,7 +906,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         let windows = locate(&d, &trials, &cur_x, &cur, &hat);
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
         let dbic = s.bic - cur_score.bic;
-        let coef_idx = d.n_levels() + if c.tau_free && !d.prior { n_keys } else { 0 } + c.effects.iter().filter(|x| **x != Effect::Saturation).position(|x| *x == e).unwrap_or(0);
+        let coef_idx = d.n_levels() + d.n_shape(&c) + c.effects.iter().filter(|x| **x != Effect::Saturation).position(|x| *x == e).unwrap_or(0);
         let params = match e {
             Effect::Creep => serde_json::json!({"per_decade_fraction": x.get(coef_idx), "time_s": 1.0}),
             Effect::Hysteresis => serde_json::json!({"fraction": x.get(coef_idx)}),
@@ -981,7 +1024,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     let mut predictions = Vec::new();
     let mut buf = Vec::new();
     for (i, (rec, tr)) in recs.iter().zip(&trials).enumerate() {
-        let baseline: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, tr, t, &xb, &base_cfg, &hat0, &mut buf)).collect();
+        let baseline: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, &base_eval[i], t, &xb, &base_cfg, &hat0, &mut buf)).collect();
         let improved: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, tr, t, &cur_x, &cur, &hat, &mut buf)).collect();
         let windows = findings.iter().flat_map(|f| f.windows.iter()).filter(|w| w.recording == rec.source).map(|w| (w.start_s, w.end_s)).collect();
         predictions.push(Prediction { stem: rec.stem(), time_s: rec.time_s.clone(), measured: rec.response.clone(), baseline, improved, windows });

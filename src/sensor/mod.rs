@@ -1,6 +1,7 @@
 //! The sensor loop: recordings → preprocessing → fits → fashion curves → reports; the simulator.
 
 pub mod analyze;
+pub mod catalogue;
 pub mod cli;
 pub mod diagnose;
 pub mod diagnose_out;

@@ -153,9 +153,20 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
 /// clean samples; a block with none is dropped). Weights are handled when they are placed or
 /// removed, so spikes are only looked for within `HANDLING_WINDOW_S` of a logged step.
 pub fn prepare(rec: &Recording, opts: &Options) -> (Series, Vec<SpikeWindow>) {
+    prepare_with(rec, opts, &[])
+}
+
+/// Were the loads placed by hand (so handling spikes are looked for)?
+pub fn by_hand(rec: &Recording, opts: &Options) -> bool {
+    opts.handling && rec.meta.all.get("loading").is_none_or(|l| l.trim() != "actuator")
+}
+
+/// As [`prepare`], with further spike windows (found at the steps' edges once the steps are
+/// fitted) excluded too.
+pub fn prepare_with(rec: &Recording, opts: &Options, extra: &[SpikeWindow]) -> (Series, Vec<SpikeWindow>) {
     let (steps, _) = segment(rec, opts);
     let (all, mut mask) = spikes(&rec.time_s, &rec.response, opts);
-    let by_hand = opts.handling && rec.meta.all.get("loading").is_none_or(|l| l.trim() != "actuator");
+    let by_hand = by_hand(rec, opts);
     let near = |t: f64| by_hand && steps.iter().any(|s| (t - s.t_log).abs() <= HANDLING_WINDOW_S);
     let mut windows = Vec::new();
     for w in all {
@@ -169,6 +180,15 @@ pub fn prepare(rec: &Recording, opts: &Options) -> (Series, Vec<SpikeWindow>) {
             }
         }
     }
+    for w in extra {
+        for (i, &t) in rec.time_s.iter().enumerate() {
+            if t >= w.start_s && t <= w.end_s {
+                mask[i] = false;
+            }
+        }
+        windows.push(w.clone());
+    }
+    windows.sort_by(|a, b| a.start_s.total_cmp(&b.start_s));
     let block = if opts.mean_filter { opts.block.max(1) } else { 1 };
     let (mut t, mut v, mut g, mut ok) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut given_t, mut given_v) = (Vec::new(), Vec::new());
