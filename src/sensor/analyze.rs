@@ -2,6 +2,7 @@
 //! one report. Diagnosis, tables and plots read the report only.
 
 use super::catalogue::handling_spikes::{self, EdgeStep};
+use super::catalogue::saturation;
 use super::fashion::{self, Fashion, Readout};
 use super::fit::{self, PaperFit, StepData, StepFit};
 use super::preprocess::{self, Phase, Series, SpikeWindow, Step};
@@ -167,6 +168,11 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
                 })
                 .collect();
             let sigma = preprocess::noise_sigma(&rec.response);
+            // a step that reaches a clip is not first order at its edge: not searched
+            let edges: Vec<EdgeStep> = match saturation::clip_level(&[&rec.response], sigma) {
+                Some(clip) => edges.into_iter().filter(|e| !rec.time_s.iter().zip(&rec.response).any(|(&t, &v)| t >= e.from_s && t <= e.to_s && v >= clip - 2.0 * sigma)).collect(),
+                None => edges,
+            };
             let known = &infos[ri].spikes;
             handling_spikes::detect(&rec.time_s, &rec.response, &edges, sigma, opts.pre.max_spike_s)
                 .into_iter()

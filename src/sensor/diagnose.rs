@@ -20,43 +20,15 @@ use serde::Serialize;
 /// A term must improve held-out prediction with a paired z of at least this over units.
 pub const MIN_Z: f64 = 3.0;
 pub const MIN_DBIC: f64 = -10.0;
+/// A kept term is dropped in the backward check when, given all the others, its held-out paired z
+/// falls below this (enter at `MIN_Z`, stay above `MIN_Z_STAY`: the usual stepwise pair of
+/// thresholds, so a term that entered is not dropped for a z just under the entry bar).
+pub const MIN_Z_STAY: f64 = 2.0;
 pub const SCHEMA: &str = "tipforge.diagnosis/1";
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Effect {
-    Creep,
-    Hysteresis,
-    SecondTimeConstant,
-    BaselineDrift,
-    Saturation,
-    HandlingSpikes,
-}
-
-impl Effect {
-    pub fn name(self) -> &'static str {
-        match self {
-            Effect::Creep => "creep",
-            Effect::Hysteresis => "hysteresis",
-            Effect::SecondTimeConstant => "second_time_constant",
-            Effect::BaselineDrift => "baseline_drift",
-            Effect::Saturation => "saturation",
-            Effect::HandlingSpikes => "handling_spikes",
-        }
-    }
-    pub fn explanation(self) -> &'static str {
-        match self {
-            Effect::Creep => "the response keeps changing slowly under a constant load after the first-order part has settled: the rubber creeps (viscoelastic flow), modelled as a log-time term proportional to the load's level",
-            Effect::Hysteresis => "at the same load the unloading branch stays away from the loading branch: the contact area remembers the highest load, modelled as an offset proportional to the gap to the maximum-load level",
-            Effect::SecondTimeConstant => "part of each step relaxes with a second, slower time constant (the dome or a cover relaxing on its own), modelled as a mixture of two exponentials",
-            Effect::BaselineDrift => "a load-independent offset changes steadily with time (thermal or electronic drift), modelled as a linear trend",
-            Effect::Saturation => "the response is clipped at a ceiling (ADC reference or amplifier rail): samples pile up at one value under the highest loads, modelled by clipping the prediction",
-            Effect::HandlingSpikes => "short transients while weights are placed by hand: an artifact of the procedure, reported and excluded from every fit, not modelled as physics",
-        }
-    }
-}
-
-const CATALOGUE: [Effect; 5] = [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation];
+pub use super::catalogue::Effect;
+use super::catalogue::second_time_constant::Drive;
+use super::catalogue::{self, Steps, MODELLED as CATALOGUE};
 
 /// One step of one trial.
 #[derive(Debug, Clone)]
@@ -105,6 +77,8 @@ struct Config {
     tau_free: bool,
     effects: Vec<Effect>,
     tau2: f64,
+    /// What drives the second relaxation (its sign with the change, or the change's size).
+    drive: Drive,
     clip: Option<f64>,
     /// With a clip: the time constant and onset of each step the clip shapes, as
     /// ((trial, segment), τ, onset). The clipped shape biases those steps' own first-order fits.
@@ -183,7 +157,7 @@ impl Design {
         }
     }
     fn ncols(&self, cfg: &Config) -> usize {
-        self.n_levels() + self.n_shape(cfg) + cfg.effects.iter().filter(|e| **e != Effect::Saturation).count()
+        self.n_levels() + self.n_shape(cfg) + cfg.effects.iter().map(|e| effect_cols(*e, cfg)).sum::<usize>()
     }
     /// The design row of trial `i` at time t.
     fn row(&self, i: usize, tr: &Trial, t: f64, cfg: &Config, hat: &Hat, out: &mut Vec<f64>) {
@@ -227,50 +201,61 @@ impl Design {
             col += self.n_keys + self.refit_onset.len();
         }
         let cur = active.last().copied();
-        let l0 = hat.level_of(self.loads[0]);
+        let steps = TrialSteps { i, tr, cfg, hat, l0: hat.level_of(self.loads[0]), top: hat.max_level() };
         for e in &cfg.effects {
-            let v = match e {
-                Effect::Creep => match cur {
-                    // log-time growth under the current load; what earlier loads built up relaxes
-                    // away with the new step's time constant
-                    Some(s) => {
-                        let mut carry = 0.0;
-                        for q in 0..=s {
-                            let sg = &tr.segs[q];
-                            let end = if q == s { t } else { cfg.t0_of(i, q + 1, &tr.segs[q + 1]) };
-                            let since = end - cfg.t0_of(i, q, sg);
-                            carry = carry * (-since / cfg.tau_of(i, q, sg)).exp() + (hat.level_of(sg.load) - l0) * (1.0 + since / 1.0).log10();
-                        }
-                        carry
-                    }
-                    None => 0.0,
-                },
-                Effect::Hysteresis => {
-                    let h = |s: usize| if tr.segs[s].phase == Phase::Unloading { hat.max_level() - hat.level_of(tr.segs[s].load) } else { 0.0 };
-                    match cur {
-                        Some(s) => {
-                            let prev = if s > 0 { h(s - 1) } else { 0.0 };
-                            h(s) + (prev - h(s)) * (-(t - cfg.t0_of(i, s, &tr.segs[s])) / cfg.tau_of(i, s, &tr.segs[s])).exp()
-                        }
-                        None => 0.0,
-                    }
-                }
-                Effect::SecondTimeConstant => active
-                    .iter()
-                    .map(|&s| {
-                        let sg = &tr.segs[s];
-                        let dv = hat.level_of(sg.load) - hat.level_of(sg.prev);
-                        let t0 = cfg.t0_of(i, s, sg);
-                        dv * ((-(t - t0) / cfg.tau_of(i, s, sg)).exp() - (-(t - t0) / cfg.tau2).exp())
-                    })
-                    .sum(),
-                Effect::BaselineDrift => t - tr.t[0],
-                Effect::Saturation => continue,
-                Effect::HandlingSpikes => continue,
-            };
-            out[col] = v;
-            col += 1;
+            match e {
+                Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
+                Effect::Hysteresis => out[col] = cur.map(|s| catalogue::hysteresis::column(&steps, s, t)).unwrap_or(0.0),
+                Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, &active, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
+                Effect::BaselineDrift => out[col] = catalogue::baseline_drift::column(t, tr.t[0]),
+                Effect::Saturation | Effect::HandlingSpikes => {}
+            }
+            col += effect_cols(*e, cfg);
         }
+    }
+}
+
+/// One trial's steps as the catalogue's terms see them.
+struct TrialSteps<'a> {
+    i: usize,
+    tr: &'a Trial,
+    cfg: &'a Config,
+    hat: &'a Hat,
+    l0: f64,
+    top: f64,
+}
+
+impl Steps for TrialSteps<'_> {
+    fn len(&self) -> usize {
+        self.tr.segs.len()
+    }
+    fn t0(&self, q: usize) -> f64 {
+        self.cfg.t0_of(self.i, q, &self.tr.segs[q])
+    }
+    fn tau(&self, q: usize) -> f64 {
+        self.cfg.tau_of(self.i, q, &self.tr.segs[q])
+    }
+    fn dv(&self, q: usize) -> f64 {
+        let sg = &self.tr.segs[q];
+        self.hat.level_of(sg.load) - self.hat.level_of(sg.prev)
+    }
+    fn level(&self, q: usize) -> f64 {
+        self.hat.level_of(self.tr.segs[q].load) - self.l0
+    }
+    fn below_top(&self, q: usize) -> f64 {
+        self.top - self.hat.level_of(self.tr.segs[q].load)
+    }
+    fn unloading(&self, q: usize) -> bool {
+        self.tr.segs[q].phase == Phase::Unloading
+    }
+}
+
+/// Design columns of a catalogue term.
+fn effect_cols(e: Effect, cfg: &Config) -> usize {
+    match e {
+        Effect::Saturation | Effect::HandlingSpikes => 0,
+        Effect::SecondTimeConstant => cfg.drive.columns(),
+        _ => 1,
     }
 }
 
@@ -522,8 +507,22 @@ pub struct Diagnosis {
     pub final_: Final,
     /// Every selection decision with its numbers (the stop rule: gain ≥ MIN_GAIN and ΔBIC ≤ MIN_DBIC).
     pub decisions: Vec<Decision>,
+    /// Where the baseline fails, before any term is chosen: each catalogue signature's windows and
+    /// the whiteness test's, each with its statistic.
+    pub located: Vec<LocatedWindow>,
     #[serde(skip)]
     pub predictions: Vec<Prediction>,
+}
+
+/// A window where the baseline fails, with the test that flagged it.
+#[derive(Debug, Clone, Serialize)]
+pub struct LocatedWindow {
+    /// The test: an effect's signature ("creep", …) or "whiteness".
+    pub test: &'static str,
+    pub recording: String,
+    pub start_s: f64,
+    pub end_s: f64,
+    pub statistic: String,
 }
 
 /// Per recording, per raw sample: measured, baseline and improved predictions.
@@ -671,12 +670,64 @@ fn clip_fixes(trials: &[Trial], clip: f64, steps: &ClipSteps) -> Vec<FixedStep> 
 }
 
 fn clip_level(trials: &[Trial]) -> Option<f64> {
-    let vmax = trials.iter().flat_map(|t| t.v.iter().copied()).fold(f64::NEG_INFINITY, f64::max);
-    let sigma = trials.iter().map(|t| t.sigma).fold(0.0, f64::max).max(1e-12);
-    let n: usize = trials.iter().map(|t| t.v.len()).sum();
-    let at = trials.iter().flat_map(|t| t.v.iter()).filter(|&&v| v >= vmax - 0.25 * sigma).count();
-    // a clipped plateau: at least 2 % of all samples sit within a quarter sigma of the maximum
-    (at as f64 >= 0.02 * n as f64).then_some(vmax)
+    let sigma = trials.iter().map(|t| t.sigma).fold(0.0, f64::max);
+    catalogue::saturation::clip_level(&trials.iter().map(|t| t.v.as_slice()).collect::<Vec<_>>(), sigma)
+}
+
+/// One hold of one trial with a model's residuals (the stretch before the first step included).
+struct HoldData {
+    trial: usize,
+    t: Vec<f64>,
+    r: Vec<f64>,
+    t0: f64,
+    end: f64,
+    tau: f64,
+    load: f64,
+    prev: f64,
+}
+
+fn hold_data(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &Hat) -> Vec<HoldData> {
+    let mut out = Vec::new();
+    let mut buf = Vec::new();
+    for (i, tr) in trials.iter().enumerate() {
+        let Some(first) = tr.segs.first() else { continue };
+        let mut spans = vec![(tr.t[0], first.t0, 0.0, first.prev, first.prev)];
+        for (s, sg) in tr.segs.iter().enumerate() {
+            let end = tr.segs.get(s + 1).map(|n| n.t0).unwrap_or(tr.t[tr.t.len() - 1] + 1e-9);
+            spans.push((cfg.t0_of(i, s, sg), end, cfg.tau_of(i, s, sg), sg.load, sg.prev));
+        }
+        for (t0, end, tau, load, prev) in spans {
+            let idx: Vec<usize> = (0..tr.t.len()).filter(|&j| tr.t[j] >= t0 && tr.t[j] < end).collect();
+            let t: Vec<f64> = idx.iter().map(|&j| tr.t[j]).collect();
+            let r: Vec<f64> = idx.iter().map(|&j| tr.v[j] - predict(d, i, tr, tr.t[j], x, cfg, hat, &mut buf)).collect();
+            out.push(HoldData { trial: i, t, r, t0, end, tau, load, prev });
+        }
+    }
+    out
+}
+
+/// Where an effect's signature shows in a model's residuals.
+fn signature(e: Effect, holds: &[HoldData], trials: &[Trial], clip: Option<f64>, report: &Report) -> Vec<Window> {
+    let views: Vec<catalogue::Hold> = holds
+        .iter()
+        .map(|h| catalogue::Hold { recording: &trials[h.trial].name, t: &h.t, r: &h.r, sigma: trials[h.trial].sigma, t0_s: h.t0, end_s: h.end, tau_s: h.tau, load: h.load, prev: h.prev, trial: h.trial })
+        .collect();
+    let found = match e {
+        Effect::Creep => catalogue::creep::signature(&views),
+        Effect::Hysteresis => catalogue::hysteresis::signature(&views),
+        Effect::SecondTimeConstant => catalogue::second_time_constant::signature(&views),
+        Effect::BaselineDrift => catalogue::baseline_drift::signature(&views),
+        Effect::Saturation => match clip {
+            Some(level) => trials.iter().flat_map(|tr| catalogue::saturation::signature(&tr.name, &tr.t, &tr.v, level, tr.sigma)).collect(),
+            None => vec![],
+        },
+        Effect::HandlingSpikes => report
+            .recordings
+            .iter()
+            .flat_map(|r| r.spikes.iter().map(move |w| catalogue::Located { recording: r.source.clone(), start_s: w.start_s, end_s: w.end_s, statistic: format!("peak {:+.4} {}", w.peak, r.unit), z: f64::INFINITY }))
+            .collect(),
+    };
+    found.into_iter().map(|l| Window { recording: l.recording, start_s: l.start_s, end_s: l.end_s, statistic: l.statistic }).collect()
 }
 
 /// Residual windows per step segment where the model fails.
@@ -818,7 +869,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             Hat { loads: loads.clone(), level }
         }
         None => {
-            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, clip: None, tau_fixed: vec![], restart: vec![] };
+            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![] };
             let rows = all_rows(&trials);
             let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
             let mut level = vec![0.0];
@@ -828,7 +879,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     };
     let hat0 = hat.clone();
     // the baseline: first-order steps with their levels and time constants refitted jointly
-    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, clip: None, tau_fixed: vec![], restart: vec![] };
+    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![] };
     // (fitted to the data as given, scored on the data without the handling spikes; the diagnosis
     // works on the latter, and the spikes are reported and excluded below)
     // fitted to the series as given (with the steps fitted to it), scored on the series without
@@ -841,6 +892,15 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     let clean_cfg = base_cfg.clone();
     let (clean, xc) = if has_spikes { score(&d, &trials, &clean_cfg, &hat)? } else { (base.clone(), xb.clone()) };
     let clip = clip_level(&trials);
+    // locate: every test on the baseline's residuals (the clean fit), before any term is chosen
+    let located: Vec<LocatedWindow> = {
+        let holds = hold_data(&d, &trials, &xc, &clean_cfg, &hat);
+        let mut all: Vec<LocatedWindow> = locate(&d, &trials, &xc, &clean_cfg, &hat).into_iter().map(|w| LocatedWindow { test: "whiteness", recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic }).collect();
+        for e in [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation, Effect::HandlingSpikes] {
+            all.extend(signature(e, &holds, &trials, clip, &report).into_iter().map(|w| LocatedWindow { test: e.name(), recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic }));
+        }
+        all
+    };
     let clip_steps = match clip {
         Some(c) => clipped_segments(&trials, c),
         None => ClipSteps { into: vec![], from: vec![], units: vec![] },
@@ -860,10 +920,11 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
                 continue;
             }
             let cands: Vec<Config> = match e {
-                Effect::SecondTimeConstant => [2.0, 3.0, 4.0, 5.5, 7.5, 10.0, 14.0, 20.0, 28.0].iter().map(|m| {
+                Effect::SecondTimeConstant => [Drive::Change, Drive::Size].iter().flat_map(|&drive| [2.0, 3.0, 4.0, 5.5, 7.5, 10.0, 14.0, 20.0, 28.0].iter().map(move |m| (drive, m))).map(|(drive, m)| {
                     let mut c = cur.clone();
                     c.effects.push(e);
                     c.tau2 = m * med_tau;
+                    c.drive = drive;
                     c
                 }).collect(),
                 Effect::Saturation => {
@@ -884,7 +945,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             let mut pick: Option<(Config, Score, Vec<f64>)> = None;
             for c in cands {
                 if let Some((s, x)) = score(&d, &trials, &c, &hat) {
-                    if pick.as_ref().is_none_or(|p| s.rmse < p.1.rmse) {
+                    if pick.as_ref().is_none_or(|p| s.bic < p.1.bic) {
                         pick = Some((c, s, x));
                     }
                 }
@@ -903,14 +964,20 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         if let Some(dc) = decisions.iter_mut().rev().find(|dc| dc.step == round && dc.candidate == e.name()) {
             dc.accepted = true;
         }
-        let windows = locate(&d, &trials, &cur_x, &cur, &hat);
+        // where its signature shows in the residuals of the model before it entered (the
+        // whiteness test's windows when the signature alone does not reach its threshold)
+        let mut windows = signature(e, &hold_data(&d, &trials, &cur_x, &cur, &hat), &trials, clip, &report);
+        if windows.is_empty() {
+            windows = locate(&d, &trials, &cur_x, &cur, &hat);
+        }
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
         let dbic = s.bic - cur_score.bic;
-        let coef_idx = d.n_levels() + d.n_shape(&c) + c.effects.iter().filter(|x| **x != Effect::Saturation).position(|x| *x == e).unwrap_or(0);
+        let coef_idx = d.n_levels() + d.n_shape(&c) + c.effects.iter().take_while(|x| **x != e).map(|x| effect_cols(*x, &c)).sum::<usize>();
         let params = match e {
-            Effect::Creep => serde_json::json!({"per_decade_fraction": x.get(coef_idx), "time_s": 1.0}),
+            Effect::Creep => serde_json::json!({"per_decade_fraction": x.get(coef_idx), "time_s": catalogue::creep::TIME_S}),
             Effect::Hysteresis => serde_json::json!({"fraction": x.get(coef_idx)}),
-            Effect::SecondTimeConstant => serde_json::json!({"fraction": x.get(coef_idx), "tau2_s": c.tau2}),
+            Effect::SecondTimeConstant if c.drive == Drive::Size => serde_json::json!({"drive": c.drive.label(), "after_loading_fraction": x.get(coef_idx), "after_unloading_fraction": x.get(coef_idx + 1), "tau2_s": c.tau2}),
+            Effect::SecondTimeConstant => serde_json::json!({"drive": c.drive.label(), "fraction": x.get(coef_idx), "tau2_s": c.tau2}),
             Effect::BaselineDrift => serde_json::json!({"rate_per_s": x.get(coef_idx)}),
             Effect::Saturation => serde_json::json!({"level": c.clip}),
             Effect::HandlingSpikes => serde_json::json!({}),
@@ -918,7 +985,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         findings.push(Finding {
             effect: e.name(),
             confidence: if dbic < -100.0 && gain > 0.05 { "high" } else if dbic < -30.0 { "medium" } else { "low" },
-            explanation: e.explanation().to_string(),
+            explanation: if e == Effect::SecondTimeConstant { c.drive.explanation().to_string() } else { e.explanation().to_string() },
             windows,
             term: Term { name: format!("{}_term", e.name()), params },
             heldout_rmse_before: cur_score.heldout_rmse,
@@ -944,7 +1011,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             let Some((s_wo, x_wo)) = score(&d, &trials, &c, &hat) else { continue };
             let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clip_steps.units) } else { paired_z(&s_wo.units, &cur_score.units) };
             let dbic = cur_score.bic - s_wo.bic;
-            let passes = z >= MIN_Z && dbic <= MIN_DBIC;
+            let passes = z >= MIN_Z_STAY && dbic <= MIN_DBIC;
             if !passes && worst.as_ref().is_none_or(|w| z < w.4) {
                 worst = Some((idx, c, s_wo, x_wo, z));
             }
@@ -960,26 +1027,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     // saturation the free levels absorbed: the clipped plateau is its own evidence (samples piled
     // at one value with no noise on them)
     if let (Some(level), false) = (clip, cur.effects.contains(&Effect::Saturation)) {
-        let mut windows = Vec::new();
-        for tr in &trials {
-            let mut start: Option<f64> = None;
-            for j in 0..tr.t.len() {
-                let at = tr.v[j] >= level - 0.25 * tr.sigma.max(1e-12);
-                match (at, start) {
-                    (true, None) => start = Some(tr.t[j]),
-                    (false, Some(s0)) => {
-                        if tr.t[j] - s0 > 1.0 {
-                            windows.push(Window { recording: tr.name.clone(), start_s: s0, end_s: tr.t[j], statistic: format!("clipped at {level:.4}") });
-                        }
-                        start = None;
-                    }
-                    _ => {}
-                }
-            }
-            if let Some(s0) = start {
-                windows.push(Window { recording: tr.name.clone(), start_s: s0, end_s: tr.t[tr.t.len() - 1], statistic: format!("clipped at {level:.4}") });
-            }
-        }
+        let windows = signature(Effect::Saturation, &[], &trials, clip, &report);
         if !windows.is_empty() {
             findings.push(Finding {
                 effect: Effect::Saturation.name(),
@@ -994,11 +1042,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         }
     }
     // handling spikes: reported and excluded, never modelled
-    let spikes: Vec<Window> = report
-        .recordings
-        .iter()
-        .flat_map(|r| r.spikes.iter().map(move |w| Window { recording: r.source.clone(), start_s: w.start_s, end_s: w.end_s, statistic: format!("peak {:+.4} {}", w.peak, r.unit) }))
-        .collect();
+    let spikes = signature(Effect::HandlingSpikes, &[], &trials, clip, &report);
     if !spikes.is_empty() {
         let n_spikes = spikes.len();
         findings.push(Finding {
@@ -1038,6 +1082,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         findings,
         unexplained,
         decisions,
+        located,
         predictions,
     })
 }

@@ -4,7 +4,7 @@
 //! first-order curve, within the handling window of a logged step. The running-median detector of
 //! part 1 misses a spike that rides the step's edge in the step's direction (the median follows
 //! the edge); this one compares the samples with the step's first-order curve, its onset fitted
-//! robustly (Tukey's biweight, so the spike carries no weight), removes what varies slowly (a
+//! robustly (Huber's loss, so the spike carries little weight), removes what varies slowly (a
 //! running median of the residual over ±0.5 s) and scans the rest with box filters of 0.03–0.25 s.
 //! Term: none — the windows are reported and excluded from every fit; placing weights by hand is
 //! not sensor physics.
@@ -26,63 +26,120 @@ pub struct EdgeStep {
     pub to_s: f64,
 }
 
-fn tukey(r: f64, c: f64) -> (f64, f64) {
+fn huber(r: f64, k: f64) -> (f64, f64) {
     // (ρ, weight)
-    if r.abs() >= c {
-        (c * c / 6.0, 0.0)
+    let a = r.abs();
+    if a <= k {
+        (0.5 * r * r, 1.0)
     } else {
-        let q = 1.0 - (r / c).powi(2);
-        (c * c / 6.0 * (1.0 - q * q * q), q * q)
+        (k * (a - 0.5 * k), k / a)
     }
 }
 
-/// Robust fit of v = a + b·u(t), u = 1 − e^(−(t − t0)/τ) after t0 (0 before), over onsets near
-/// `t0_s`; returns the residuals at the samples given.
+/// Columns of the local model at time t: level, the step's first-order rise, and what a second
+/// relaxation, creep or drift add near the edge (a rise at 4τ, and a ramp and its square after the
+/// onset, over the window's length `span`).
+fn columns(t: f64, t0: f64, tau: f64, span: f64) -> [f64; NCOL] {
+    if t > t0 {
+        let r = (t - t0) / span;
+        [1.0, 1.0 - (-(t - t0) / tau).exp(), 1.0 - (-(t - t0) / (4.0 * tau)).exp(), r, r * r]
+    } else {
+        [1.0, 0.0, 0.0, 0.0, 0.0]
+    }
+}
+
+const NCOL: usize = 5;
+
+/// Robust (Huber) fit of the local model over onsets near `t0_s` and time constants around
+/// `tau_s`; returns the residuals.
 fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> Vec<f64> {
     let n = t.len();
-    let dt = if n > 1 { (t[n - 1] - t[0]) / (n - 1) as f64 } else { 0.01 };
-    let c = 4.685 * sigma;
+    let k = 1.345 * sigma;
+    let span = (t[n - 1] - t[0]).max(1e-9);
     let mut pre: Vec<f64> = (0..n).filter(|&j| t[j] < st.t0_s - 0.2).map(|j| v[j]).collect();
     let mut late: Vec<f64> = (0..n).filter(|&j| t[j] > st.t0_s + 3.0 * st.tau_s).map(|j| v[j]).collect();
     let a0 = if pre.is_empty() { v[0] } else { median(&mut pre) };
     let l0 = if late.is_empty() { v[n - 1] } else { median(&mut late) };
-    let mut best: (f64, f64, f64, f64) = (f64::INFINITY, st.t0_s, a0, l0 - a0);
-    let steps = (0.6 / (0.5 * dt)).round().max(1.0) as usize;
-    let mut u = vec![0.0; n];
-    for g in 0..=steps {
-        let t0 = st.t0_s - 0.3 + 0.6 * g as f64 / steps as f64;
+    let start = {
+        let mut x = [0.0; NCOL];
+        x[0] = a0;
+        x[1] = l0 - a0;
+        x
+    };
+    let mut cols = vec![[0.0f64; NCOL]; n];
+    let model = |c: &[f64; NCOL], x: &[f64; NCOL]| c.iter().zip(x).map(|(a, b)| a * b).sum::<f64>();
+    let fit = |t0: f64, tau: f64, cols: &mut Vec<[f64; NCOL]>| -> (f64, [f64; NCOL]) {
         for j in 0..n {
-            u[j] = if t[j] > t0 { 1.0 - (-(t[j] - t0) / st.tau_s).exp() } else { 0.0 };
+            cols[j] = columns(t[j], t0, tau, span);
         }
-        let (mut a, mut b) = (a0, l0 - a0);
-        let mut obj = 0.0;
+        let mut x = start;
+        // Huber's loss: convex, so no fit may buy a wrong onset by calling the edge an outlier
+        // (a redescending loss can), while a spike still weighs little
         for _ in 0..5 {
-            let (mut sw, mut su, mut suu, mut sv, mut suv) = (0.0, 0.0, 0.0, 0.0, 0.0);
-            obj = 0.0;
+            let mut m = nalgebra::SMatrix::<f64, NCOL, NCOL>::zeros();
+            let mut r = nalgebra::SVector::<f64, NCOL>::zeros();
             for j in 0..n {
-                let (rho, w) = tukey(v[j] - a - b * u[j], c);
-                obj += rho;
-                sw += w;
-                su += w * u[j];
-                suu += w * u[j] * u[j];
-                sv += w * v[j];
-                suv += w * u[j] * v[j];
+                let w = huber(v[j] - model(&cols[j], &x), k).1;
+                for a in 0..NCOL {
+                    if cols[j][a] == 0.0 {
+                        continue;
+                    }
+                    r[a] += w * cols[j][a] * v[j];
+                    for b in 0..NCOL {
+                        m[(a, b)] += w * cols[j][a] * cols[j][b];
+                    }
+                }
             }
-            let det = sw * suu - su * su;
-            if det.abs() < 1e-12 * (1.0 + sw * suu) {
-                break;
+            for a in 0..NCOL {
+                m[(a, a)] += 1e-12 * (1.0 + m[(a, a)]);
             }
-            b = (sw * suv - su * sv) / det;
-            a = (sv - b * su) / sw;
+            match m.cholesky() {
+                Some(ch) => {
+                    let sol = ch.solve(&r);
+                    x.iter_mut().zip(sol.iter()).for_each(|(a, b)| *a = *b);
+                }
+                None => break,
+            }
         }
-        let obj_end: f64 = (0..n).map(|j| tukey(v[j] - a - b * u[j], c).0).sum();
-        let _ = obj;
-        if obj_end < best.0 {
-            best = (obj_end, t0, a, b);
+        let obj = (0..n).map(|j| huber(v[j] - model(&cols[j], &x), k).0).sum();
+        (obj, x)
+    };
+    let mut best = (f64::INFINITY, st.t0_s, st.tau_s, start);
+    // coarse onsets at the part-1 τ, then τ, then fine onsets
+    for g in 0..=30 {
+        let t0 = st.t0_s - 0.3 + 0.02 * g as f64;
+        let (o, x) = fit(t0, st.tau_s, &mut cols);
+        if o < best.0 {
+            best = (o, t0, st.tau_s, x);
         }
     }
-    let (_, t0, a, b) = best;
-    (0..n).map(|j| v[j] - a - b * if t[j] > t0 { 1.0 - (-(t[j] - t0) / st.tau_s).exp() } else { 0.0 }).collect()
+    for f in [0.5, 0.7, 1.4, 2.0] {
+        let (o, x) = fit(best.1, f * st.tau_s, &mut cols);
+        if o < best.0 {
+            best = (o, best.1, f * st.tau_s, x);
+        }
+    }
+    // finer: τ within ±10 %, onsets within ±0.02 s, τ within ±3 % (a large step's residual is
+    // ΔV·e⁻¹·Δτ/τ at t = τ, far above the noise for a coarse τ)
+    for (span, n_tau, dt0, n_t0) in [(0.10, 10, 0.0, 0), (0.0, 0, 0.0025, 16), (0.03, 12, 0.0, 0), (0.0, 0, 0.001, 10)] {
+        let (t_c, tau_c) = (best.1, best.2);
+        for g in 0..=n_tau {
+            let tau = tau_c * (1.0 - span + 2.0 * span * g as f64 / n_tau.max(1) as f64);
+            let (o, x) = fit(t_c, tau, &mut cols);
+            if o < best.0 {
+                best = (o, t_c, tau, x);
+            }
+        }
+        for g in 0..=n_t0 {
+            let t0 = t_c - 0.5 * dt0 * n_t0 as f64 + dt0 * g as f64;
+            let (o, x) = fit(t0, best.2, &mut cols);
+            if o < best.0 {
+                best = (o, t0, best.2, x);
+            }
+        }
+    }
+    let (_, t0, tau, x) = best;
+    (0..n).map(|j| v[j] - model(&columns(t[j], t0, tau, span), &x)).collect()
 }
 
 /// Spike windows at the steps' edges (raw samples, their noise `sigma`).
@@ -162,9 +219,9 @@ mod tests {
     fn series(spike: f64, sign: f64) -> (Vec<f64>, Vec<f64>) {
         let t: Vec<f64> = (0..3000).map(|i| i as f64 * 0.01).collect();
         let mut v: Vec<f64> = t.iter().map(|&x| if x < 10.0 { 0.5 } else { 0.5 - 0.3 * (1.0 - (-(x - 10.0) / 0.6f64).exp()) }).collect();
+        let noise = super::super::test_noise(v.len(), 0.003, 11);
         for (i, x) in v.iter_mut().enumerate() {
-            // deterministic noise, σ ≈ 0.003
-            *x += 0.0104 * (((i * 7919) % 1000) as f64 / 1000.0 - 0.5);
+            *x += noise[i];
             let s = t[i] - 10.0 + 0.075;
             if (0.0..0.15).contains(&s) {
                 *x += sign * spike * (std::f64::consts::PI * s / 0.15).sin();

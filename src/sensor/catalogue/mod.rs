@@ -1,4 +1,168 @@
 //! The catalogue of physics the paper's first-order model leaves out: one module per effect, each
-//! with its signature in the residuals, its model term and a sentence a lab user understands.
+//! with (a) its signature in the residuals (`signature`: the windows where it shows, each with its
+//! statistic), (b) its model term (columns added to the step model, linear given their shape
+//! parameters) and (c) a sentence a lab user understands (`EXPLANATION`).
+//!
+//! The terms read the steps through [`Steps`], so they do not depend on how the diagnosis stores
+//! its model; the signatures read the residuals of one hold at a time through [`Hold`].
 
+pub mod baseline_drift;
+pub mod creep;
 pub mod handling_spikes;
+pub mod hysteresis;
+pub mod saturation;
+pub mod second_time_constant;
+
+use serde::Serialize;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    Creep,
+    Hysteresis,
+    SecondTimeConstant,
+    BaselineDrift,
+    Saturation,
+    HandlingSpikes,
+}
+
+/// The effects with a model term, in the order the forward selection tries them.
+pub const MODELLED: [Effect; 5] = [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation];
+
+impl Effect {
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::Creep => "creep",
+            Effect::Hysteresis => "hysteresis",
+            Effect::SecondTimeConstant => "second_time_constant",
+            Effect::BaselineDrift => "baseline_drift",
+            Effect::Saturation => "saturation",
+            Effect::HandlingSpikes => "handling_spikes",
+        }
+    }
+    pub fn explanation(self) -> &'static str {
+        match self {
+            Effect::Creep => creep::EXPLANATION,
+            Effect::Hysteresis => hysteresis::EXPLANATION,
+            Effect::SecondTimeConstant => second_time_constant::EXPLANATION,
+            Effect::BaselineDrift => baseline_drift::EXPLANATION,
+            Effect::Saturation => saturation::EXPLANATION,
+            Effect::HandlingSpikes => handling_spikes::EXPLANATION,
+        }
+    }
+}
+
+/// The steps of one trial as the model terms see them (all in the response unit and seconds).
+pub trait Steps {
+    fn len(&self) -> usize;
+    /// Onset of step q.
+    fn t0(&self, q: usize) -> f64;
+    /// First-order time constant of step q.
+    fn tau(&self, q: usize) -> f64;
+    /// Change of the equilibrium level at step q (after − before).
+    fn dv(&self, q: usize) -> f64;
+    /// Equilibrium level of step q's load above the zero-load level.
+    fn level(&self, q: usize) -> f64;
+    /// The highest load's level minus step q's level.
+    fn below_top(&self, q: usize) -> f64;
+    /// Step q removes load.
+    fn unloading(&self, q: usize) -> bool;
+}
+
+/// One hold of one trial (from a step's onset to the next) with the residuals of a model.
+#[derive(Debug, Clone)]
+pub struct Hold<'a> {
+    pub recording: &'a str,
+    pub t: &'a [f64],
+    pub r: &'a [f64],
+    /// Noise of one sample.
+    pub sigma: f64,
+    pub t0_s: f64,
+    pub end_s: f64,
+    pub tau_s: f64,
+    pub load: f64,
+    /// The load before the step.
+    pub prev: f64,
+    /// Index of the trial (holds of one trial share it).
+    pub trial: usize,
+}
+
+/// A window where an effect's signature shows, with its statistic.
+#[derive(Debug, Clone, Serialize)]
+pub struct Located {
+    pub recording: String,
+    pub start_s: f64,
+    pub end_s: f64,
+    pub statistic: String,
+    /// The statistic's size in standard errors (for ranking).
+    #[serde(skip)]
+    pub z: f64,
+}
+
+/// A signature's statistic must reach this many standard errors to flag a window.
+pub const MIN_SIGNATURE_Z: f64 = 4.0;
+
+/// Effective number of independent samples in an autocorrelated series (AR(1): n·(1 − ρ)/(1 + ρ)).
+pub fn effective_n(r: &[f64]) -> f64 {
+    let n = r.len() as f64;
+    if r.len() < 3 {
+        return n;
+    }
+    let mean = r.iter().sum::<f64>() / n;
+    let var = r.iter().map(|e| (e - mean).powi(2)).sum::<f64>().max(1e-300);
+    let rho = (r.windows(2).map(|p| (p[0] - mean) * (p[1] - mean)).sum::<f64>() / var).clamp(0.0, 0.99);
+    (n * (1.0 - rho) / (1.0 + rho)).max(2.0)
+}
+
+/// Mean and its standard error (from the spread, corrected for autocorrelation).
+pub fn mean_se(r: &[f64]) -> (f64, f64) {
+    let n = r.len() as f64;
+    if r.len() < 2 {
+        return (r.first().copied().unwrap_or(0.0), f64::INFINITY);
+    }
+    let mean = r.iter().sum::<f64>() / n;
+    let sd = (r.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    (mean, sd / effective_n(r).sqrt())
+}
+
+/// Three significant digits.
+pub fn sig3(v: f64) -> String {
+    let digits = (2 - v.abs().max(1e-300).log10().floor() as i32).max(0) as usize;
+    format!("{v:.digits$}")
+}
+
+/// Gaussian test noise (xorshift + Box–Muller), deterministic per seed.
+#[cfg(test)]
+pub(crate) fn test_noise(n: usize, sigma: f64, seed: u64) -> Vec<f64> {
+    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut u = || {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        ((x >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    (0..n).map(|_| sigma * (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn test_noise_is_white_with_its_sigma() {
+        let e = test_noise(20000, 0.003, 1);
+        let (m, se) = mean_se(&e);
+        assert!(m.abs() < 4.0 * se);
+        let sd = (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt();
+        assert!((sd / 0.003 - 1.0).abs() < 0.03, "{sd}");
+        assert!(effective_n(&e) > 18000.0);
+    }
+
+    #[test]
+    fn effective_n_shrinks_with_autocorrelation() {
+        let white: Vec<f64> = (0..1000).map(|i| if i % 2 == 0 { 1.0 } else { -1.0 }).collect();
+        assert!((effective_n(&white) - 1000.0).abs() < 1.0);
+        let smooth: Vec<f64> = (0..1000).map(|i| (i as f64 / 50.0).sin()).collect();
+        assert!(effective_n(&smooth) < 20.0);
+    }
+}

@@ -1,0 +1,100 @@
+//! `creep`: slow change that continues under constant load after the first-order part settles.
+//!
+//! Signature: a trend of the residual against log time within holds, after three time constants.
+//! Term: log-time growth under the current load, proportional to the load's level above zero load
+//! (log10(1 + t/1 s)); what earlier loads built up relaxes away with the new step's time constant.
+//! Physics: viscoelastic flow of the rubber.
+
+use super::{mean_se, sig3, Hold, Located, Steps, MIN_SIGNATURE_Z};
+
+pub const EXPLANATION: &str = "the response keeps changing slowly under a constant load after the first-order part has settled: the rubber creeps (viscoelastic flow), modelled as a log-time term proportional to the load's level";
+
+/// The log-time clock's unit (s).
+pub const TIME_S: f64 = 1.0;
+
+/// The term's column at time t, with step `cur` the latest that has begun.
+pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
+    let mut carry = 0.0;
+    for q in 0..=cur {
+        let end = if q == cur { t } else { s.t0(q + 1) };
+        let since = end - s.t0(q);
+        carry = carry * (-since / s.tau(q)).exp() + s.level(q) * (1.0 + since / TIME_S).log10();
+    }
+    carry
+}
+
+/// Holds whose residual trends against log time after 3τ.
+pub fn signature(holds: &[Hold]) -> Vec<Located> {
+    let mut out = Vec::new();
+    for h in holds {
+        let idx: Vec<usize> = (0..h.t.len()).filter(|&j| h.t[j] >= h.t0_s + 3.0 * h.tau_s && h.t[j] < h.end_s).collect();
+        if idx.len() < 20 {
+            continue;
+        }
+        let x: Vec<f64> = idx.iter().map(|&j| (1.0 + (h.t[j] - h.t0_s) / TIME_S).log10()).collect();
+        let y: Vec<f64> = idx.iter().map(|&j| h.r[j]).collect();
+        let n = x.len() as f64;
+        let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+        let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
+        if sxx <= 0.0 {
+            continue;
+        }
+        let b = x.iter().zip(&y).map(|(a, c)| (a - mx) * (c - my)).sum::<f64>() / sxx;
+        // standard error from the detrended residual, corrected for autocorrelation
+        let rest: Vec<f64> = x.iter().zip(&y).map(|(a, c)| c - my - b * (a - mx)).collect();
+        let (_, se_mean) = mean_se(&rest);
+        let se_b = se_mean * (n / sxx).sqrt();
+        let z = b / se_b.max(1e-300);
+        if z.abs() >= MIN_SIGNATURE_Z {
+            out.push(Located { recording: h.recording.to_string(), start_s: h.t[idx[0]], end_s: h.end_s, statistic: format!("trend within the hold: {} per decade of time after 3τ (t = {:.1})", sig3(b), z), z: z.abs() });
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Two;
+    impl Steps for Two {
+        fn len(&self) -> usize {
+            2
+        }
+        fn t0(&self, q: usize) -> f64 {
+            [10.0, 30.0][q]
+        }
+        fn tau(&self, _: usize) -> f64 {
+            1.0
+        }
+        fn dv(&self, q: usize) -> f64 {
+            [1.0, -1.0][q]
+        }
+        fn level(&self, q: usize) -> f64 {
+            [1.0, 0.0][q]
+        }
+        fn below_top(&self, q: usize) -> f64 {
+            [0.0, 1.0][q]
+        }
+        fn unloading(&self, q: usize) -> bool {
+            q == 1
+        }
+    }
+
+    #[test]
+    fn grows_per_decade_under_load_and_relaxes_after_removal() {
+        assert!((column(&Two, 0, 19.0) - 1.0).abs() < 1e-12); // log10(1 + 9) = 1
+        let after = column(&Two, 1, 40.0);
+        assert!(after.abs() < 1e-3 && after > 0.0, "{after}");
+    }
+
+    #[test]
+    fn signature_flags_a_log_trend_and_not_noise() {
+        let t: Vec<f64> = (0..2000).map(|i| 10.0 + i as f64 * 0.01).collect();
+        let noise = super::super::test_noise(2000, 0.003, 3);
+        let trend: Vec<f64> = t.iter().zip(&noise).map(|(x, e)| e + 0.01 * (1.0 + (x - 10.0)).log10()).collect();
+        let flags = |r: &[f64]| signature(&[Hold { recording: "a", t: &t, r, sigma: 0.003, t0_s: 10.0, end_s: 30.0, tau_s: 0.5, load: 1.0, prev: 0.0, trial: 0 }]).len();
+        assert_eq!(flags(&trend), 1);
+        assert_eq!(flags(&noise), 0);
+    }
+}

@@ -1,0 +1,92 @@
+//! `hysteresis`: at the same load the unloading branch stays away from the loading branch.
+//!
+//! Signature: the offset between the residual means of the unloading and loading holds at equal
+//! load (later half of each hold), in standard errors.
+//! Term: after an unloading step, an offset proportional to the gap between the highest load's level
+//! and this load's level, reached with the step's own time constant.
+//! Physics: the contact area remembers the highest load.
+
+use super::{mean_se, sig3, Hold, Located, Steps, MIN_SIGNATURE_Z};
+
+pub const EXPLANATION: &str = "at the same load the unloading branch stays away from the loading branch: the contact area remembers the highest load, modelled as an offset proportional to the gap to the maximum-load level";
+
+/// The term's column at time t, with step `cur` the latest that has begun.
+pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
+    let h = |q: usize| if s.unloading(q) { s.below_top(q) } else { 0.0 };
+    let prev = if cur > 0 { h(cur - 1) } else { 0.0 };
+    h(cur) + (prev - h(cur)) * (-(t - s.t0(cur)) / s.tau(cur)).exp()
+}
+
+fn late_half<'a>(h: &'a Hold) -> Vec<f64> {
+    let mid = 0.5 * (h.t0_s + h.end_s);
+    (0..h.t.len()).filter(|&j| h.t[j] >= mid.max(h.t0_s + 3.0 * h.tau_s) && h.t[j] < h.end_s).map(|j| h.r[j]).collect()
+}
+
+/// Unloading holds whose residual sits off the loading hold's at the same load (same trial).
+pub fn signature(holds: &[Hold]) -> Vec<Located> {
+    let mut out = Vec::new();
+    for u in holds.iter().filter(|h| h.load < h.prev) {
+        let Some(l) = holds.iter().find(|h| h.trial == u.trial && h.load > h.prev && h.load == u.load) else { continue };
+        let (a, b) = (late_half(u), late_half(l));
+        if a.len() < 10 || b.len() < 10 {
+            continue;
+        }
+        let ((ma, sa), (mb, sb)) = (mean_se(&a), mean_se(&b));
+        let z = (ma - mb) / (sa * sa + sb * sb).sqrt().max(1e-300);
+        if z.abs() >= MIN_SIGNATURE_Z {
+            out.push(Located { recording: u.recording.to_string(), start_s: u.t0_s, end_s: u.end_s, statistic: format!("unloading branch off the loading branch at load {}: {} (z = {:.1})", u.load, sig3(ma - mb), z), z: z.abs() });
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn column_holds_the_gap_to_the_top_after_unloading() {
+        struct S;
+        impl Steps for S {
+            fn len(&self) -> usize {
+                2
+            }
+            fn t0(&self, q: usize) -> f64 {
+                [0.0, 10.0][q]
+            }
+            fn tau(&self, _: usize) -> f64 {
+                1.0
+            }
+            fn dv(&self, q: usize) -> f64 {
+                [2.0, -1.0][q]
+            }
+            fn level(&self, q: usize) -> f64 {
+                [2.0, 1.0][q]
+            }
+            fn below_top(&self, q: usize) -> f64 {
+                [0.0, 1.0][q]
+            }
+            fn unloading(&self, q: usize) -> bool {
+                q == 1
+            }
+        }
+        assert_eq!(column(&S, 0, 5.0), 0.0);
+        assert!((column(&S, 1, 30.0) - 1.0).abs() < 1e-6);
+        assert!(column(&S, 1, 10.5) < 0.5);
+    }
+
+    #[test]
+    fn signature_flags_an_offset_branch_only() {
+        let t: Vec<f64> = (0..2000).map(|i| i as f64 * 0.01).collect();
+        let a = super::super::test_noise(2000, 0.003, 5);
+        let b = super::super::test_noise(2000, 0.003, 6);
+        let off: Vec<f64> = b.iter().map(|e| e + 0.003).collect();
+        let run = |unl: &[f64]| {
+            let l = Hold { recording: "a", t: &t, r: &a, sigma: 0.003, t0_s: 0.0, end_s: 20.0, tau_s: 0.5, load: 1.0, prev: 0.0, trial: 0 };
+            let u = Hold { recording: "a", t: &t, r: unl, sigma: 0.003, t0_s: 0.0, end_s: 20.0, tau_s: 0.5, load: 1.0, prev: 2.0, trial: 0 };
+            signature(&[l, u]).len()
+        };
+        assert_eq!(run(&off), 1);
+        assert_eq!(run(&b), 0);
+    }
+}
