@@ -93,6 +93,16 @@ pub fn prepare(recs: &[Recording], opts: &Options) -> (Prepared, Vec<RecordingIn
     prepare_with(recs, opts, &vec![Vec::new(); recs.len()])
 }
 
+/// The samples one filtered sample averages for this recording: the paper's block mean is a
+/// 10-sample mean at 100 Hz; at other rates the filter stays off (1).
+pub fn filter_block(rec: &Recording, opts: &Options) -> usize {
+    if opts.pre.mean_filter && (rec.sample_rate_hz() - 100.0).abs() <= 5.0 {
+        opts.pre.block.max(1)
+    } else {
+        1
+    }
+}
+
 /// As [`prepare`], with further spike windows per recording excluded.
 fn prepare_with(recs: &[Recording], opts: &Options, extra: &[Vec<SpikeWindow>]) -> (Prepared, Vec<RecordingInfo>) {
     let mut infos = Vec::new();

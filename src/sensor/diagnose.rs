@@ -20,10 +20,6 @@ use serde::Serialize;
 /// A term must improve held-out prediction with a paired z of at least this over units.
 pub const MIN_Z: f64 = 3.0;
 pub const MIN_DBIC: f64 = -10.0;
-/// A kept term is dropped in the backward check when, given all the others, its held-out paired z
-/// falls below this (enter at `MIN_Z`, stay above `MIN_Z_STAY`: the usual stepwise pair of
-/// thresholds, so a term that entered is not dropped for a z just under the entry bar).
-pub const MIN_Z_STAY: f64 = 2.0;
 pub const SCHEMA: &str = "tipforge.diagnosis/1";
 
 pub use super::catalogue::Effect;
@@ -56,6 +52,9 @@ struct Trial {
     prior0: Option<f64>,
     /// How far below a clip the filtered series is bent by the clipped raw noise.
     clip_margin: f64,
+    /// Half the span of raw samples one filtered sample averages (0 without the filter): the
+    /// first-order part is modelled as that average, exact at a step's onset and its curved start.
+    half_span_s: f64,
     /// The series as given, handling spikes included (the baseline, the paper's model, is fitted
     /// to it).
     given_t: Vec<f64>,
@@ -166,10 +165,11 @@ impl Design {
         out[i] = 1.0;
         let base = self.n_trials;
         // level columns: loads[0] is the reference level (absorbed by o_i)
-        let active: Vec<usize> = (0..tr.segs.len()).filter(|&s| t >= cfg.t0_of(i, s, &tr.segs[s])).collect();
+        let h = tr.half_span_s;
+        let active: Vec<usize> = (0..tr.segs.len()).filter(|&s| t + h >= cfg.t0_of(i, s, &tr.segs[s])).collect();
         for &s in active.iter().filter(|_| !self.prior) {
             let sg = &tr.segs[s];
-            let u = 1.0 - (-(t - cfg.t0_of(i, s, sg)) / cfg.tau_of(i, s, sg)).exp();
+            let u = block_rise(t, cfg.t0_of(i, s, sg), cfg.tau_of(i, s, sg), h);
             if let Some(c) = self.loads.iter().position(|&x| x == sg.load).filter(|&c| c > 0) {
                 out[base + c - 1] += u;
             }
@@ -212,6 +212,23 @@ impl Design {
             }
             col += effect_cols(*e, cfg);
         }
+    }
+}
+
+/// The first-order rise 1 − e^(−(t − t0)/τ) (0 before t0), averaged over [t − h, t + h] (a filtered
+/// sample's span; h = 0: the value at t).
+fn block_rise(t: f64, t0: f64, tau: f64, h: f64) -> f64 {
+    if h <= 0.0 {
+        return if t >= t0 { 1.0 - (-(t - t0) / tau).exp() } else { 0.0 };
+    }
+    if t - h >= t0 {
+        let x = h / tau;
+        1.0 - (-(t - t0) / tau).exp() * x.sinh() / x
+    } else if t + h <= t0 {
+        0.0
+    } else {
+        let a = t + h - t0;
+        (a - tau * (1.0 - (-a / tau).exp())) / (2.0 * h)
     }
 }
 
@@ -267,8 +284,9 @@ fn clip_offset(i: usize, tr: &Trial, t: f64, cfg: &Config) -> f64 {
         .filter(|(k, _)| *k == i)
         .map(|&(_, s)| {
             let sg = &tr.segs[s];
-            if t >= sg.t0 {
-                c * (-(t - sg.t0) / sg.tau).exp()
+            // as the design row: active from t + h ≥ t0, with the filtered-sample average of u
+            if t + tr.half_span_s >= cfg.t0_of(i, s, sg) {
+                c * (1.0 - block_rise(t, cfg.t0_of(i, s, sg), cfg.tau_of(i, s, sg), tr.half_span_s))
             } else {
                 0.0
             }
@@ -536,9 +554,10 @@ pub struct Prediction {
     pub windows: Vec<(f64, f64)>,
 }
 
-fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], block: usize) -> Vec<Trial> {
+fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Options) -> Vec<Trial> {
     let mut out = Vec::new();
     for (ri, rec) in recs.iter().enumerate() {
+        let block = analyze::filter_block(rec, opts);
         let series = &prep.series[ri];
         let mut segs = Vec::new();
         for st in &prep.steps[ri] {
@@ -557,6 +576,7 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], block: usiz
             sigma: series.sigma,
             // the raw samples' noise: a clip bends the filtered series within a few of these
             clip_margin: 2.0 * series.sigma * (block as f64).sqrt(),
+            half_span_s: if block > 1 { 0.5 * block as f64 / rec.sample_rate_hz() } else { 0.0 },
             prior0: None,
             given_t: series.given_t.clone(),
             given_v: series.given_v.clone(),
@@ -816,8 +836,7 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
 /// onsets found in the data) is the baseline; only per-trial offsets and catalogue terms are fitted.
 pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Diagnosis> {
     let (report, prep) = analyze::analyze(recs, opts);
-    let block = if opts.pre.mean_filter { opts.pre.block.max(1) } else { 1 };
-    let mut trials = trials_from(&report, &prep, recs, block);
+    let mut trials = trials_from(&report, &prep, recs, opts);
     // the baseline is the paper's model fitted to the data as given: with handling spikes found,
     // its steps (onsets, time constants) are the part-1 fits of the series with the spikes left in
     let has_spikes = report.recordings.iter().any(|r| !r.spikes.is_empty());
@@ -825,7 +844,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         let mut o = opts.clone();
         o.pre.handling = false;
         let (rep_g, prep_g) = analyze::analyze(recs, &o);
-        let g = trials_from(&rep_g, &prep_g, recs, block);
+        let g = trials_from(&rep_g, &prep_g, recs, opts);
         let same = g.len() == trials.len() && g.iter().zip(&trials).all(|(a, b)| a.segs.len() == b.segs.len() && a.segs.iter().zip(&b.segs).all(|(x, y)| x.key == y.key));
         same.then_some(g)
     } else {
@@ -997,7 +1016,10 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         cur_x = x;
     }
     // backward check: every kept term must still pass the rule given all the others (a term taken
-    // early can be made redundant by a later, better one — drift standing in for hysteresis)
+    // early can be made redundant by a later, better one — drift standing in for hysteresis). A
+    // term is dropped only when the others stand without it: the model without it must itself pass
+    // the rule against the baseline (or be the baseline); terms that only explain the data
+    // together are kept together.
     loop {
         let mut worst: Option<(usize, Config, Score, Vec<f64>, f64)> = None;
         for (idx, e) in cur.effects.iter().enumerate() {
@@ -1011,8 +1033,9 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             let Some((s_wo, x_wo)) = score(&d, &trials, &c, &hat) else { continue };
             let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clip_steps.units) } else { paired_z(&s_wo.units, &cur_score.units) };
             let dbic = cur_score.bic - s_wo.bic;
-            let passes = z >= MIN_Z_STAY && dbic <= MIN_DBIC;
-            if !passes && worst.as_ref().is_none_or(|w| z < w.4) {
+            let passes = z >= MIN_Z && dbic <= MIN_DBIC;
+            let others_stand = c.effects.is_empty() || (paired_z(&clean.units, &s_wo.units) >= MIN_Z && s_wo.bic - clean.bic <= MIN_DBIC && s_wo.heldout_rmse < clean.heldout_rmse);
+            if !passes && others_stand && worst.as_ref().is_none_or(|w| z < w.4) {
                 worst = Some((idx, c, s_wo, x_wo, z));
             }
         }
@@ -1068,7 +1091,10 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     let mut predictions = Vec::new();
     let mut buf = Vec::new();
     for (i, (rec, tr)) in recs.iter().zip(&trials).enumerate() {
-        let baseline: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, &base_eval[i], t, &xb, &base_cfg, &hat0, &mut buf)).collect();
+        // at the raw samples: point values, not filtered-sample averages
+        let tr = &Trial { half_span_s: 0.0, ..tr.clone() };
+        let be = &Trial { half_span_s: 0.0, ..base_eval[i].clone() };
+        let baseline: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, be, t, &xb, &base_cfg, &hat0, &mut buf)).collect();
         let improved: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, tr, t, &cur_x, &cur, &hat, &mut buf)).collect();
         let windows = findings.iter().flat_map(|f| f.windows.iter()).filter(|w| w.recording == rec.source).map(|w| (w.start_s, w.end_s)).collect();
         predictions.push(Prediction { stem: rec.stem(), time_s: rec.time_s.clone(), measured: rec.response.clone(), baseline, improved, windows });

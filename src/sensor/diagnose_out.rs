@@ -72,9 +72,13 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     for l in summary(d) {
         html += &format!("<li>{}</li>\n", esc(&l));
     }
-    html += "</ul>\n<h2>Decisions</h2>\n<table><tr><th>round</th><th>candidate</th><th>held-out RMSE</th><th>gain</th><th>ΔBIC</th><th>accepted</th></tr>\n";
+    html += "</ul>\n<h2>Where the baseline fails</h2>\n<p>Each catalogue effect's signature and the whiteness test on the baseline's residuals, before any term is chosen.</p>\n<table><tr><th>test</th><th>recording</th><th>window (s)</th><th>statistic</th></tr>\n";
+    for w in &d.located {
+        html += &format!("<tr><td>{}</td><td>{}</td><td>{:.1}–{:.1}</td><td>{}</td></tr>\n", w.test, esc(&w.recording), w.start_s, w.end_s, esc(&w.statistic));
+    }
+    html += "</table>\n<h2>Decisions</h2>\n<p>A term enters when its held-out improvement has a paired z ≥ 3 over units and it lowers BIC by at least 10; a kept term leaves when, given the others, it no longer passes and the others pass without it.</p>\n<table><tr><th>round</th><th>candidate</th><th>held-out RMSE</th><th>gain</th><th>paired z</th><th>ΔBIC</th><th>accepted</th></tr>\n";
     for dc in &d.decisions {
-        html += &format!("<tr><td>{}</td><td>{}</td><td>{:.5}</td><td>{:+.3}</td><td>{:.1}</td><td>{}</td></tr>\n", dc.step, dc.candidate, dc.heldout_rmse, dc.gain, dc.delta_bic, dc.accepted);
+        html += &format!("<tr><td>{}</td><td>{}</td><td>{:.5}</td><td>{:+.3}</td><td>{:.2}</td><td>{:.1}</td><td>{}</td></tr>\n", dc.step, dc.candidate, dc.heldout_rmse, dc.gain, dc.z, dc.delta_bic, dc.accepted);
     }
     html += "</table>\n<h2>Recordings, models and residuals</h2>\n<p>Shaded: windows where the model failed or a finding applies.</p>\n";
     for i in &imgs {
