@@ -154,7 +154,10 @@ fn main() {
     println!("\nnull cases: {false_any} of {nn} with any finding ({:.1} %); median improved/baseline RMSE to truth {:.3}", 100.0 * false_any as f64 / nn as f64, ratios[ratios.len() / 2]);
     // pairs at 3σ each
     println!("\n| pair (3σ each) | both found | findings (first case) |\n|---|---|---|");
-    for (a, b) in [(E::Creep, E::Drift), (E::Hyst, E::Second), (E::Drift, E::Spikes), (E::Hyst, E::Creep)] {
+    let all = [E::Creep, E::Hyst, E::Second, E::Drift, E::Sat, E::Spikes];
+    let pairs: Vec<(E, E)> = (0..all.len()).flat_map(|i| (i + 1..all.len()).map(move |j| (all[i], all[j]))).filter(|(a, b)| only.is_empty() || only.iter().any(|o| o == a.name() || o == b.name())).collect();
+    let mut pair_conf: Vec<String> = Vec::new();
+    for (a, b) in pairs {
         let mut s = s0.clone();
         a.set(&mut s, magnitude_for(&s0, &p0, a, 3.0 * sigma, top), top);
         b.set(&mut s, magnitude_for(&s0, &p0, b, 3.0 * sigma, top), top);
@@ -165,6 +168,9 @@ fn main() {
             seed += 10;
             if o.found.iter().any(|f| f == a.name()) && o.found.iter().any(|f| f == b.name()) {
                 both += 1;
+            }
+            for f in o.found.iter().filter(|f| *f != a.name() && *f != b.name()) {
+                pair_conf.push(format!("{} + {} → {f}", a.name(), b.name()));
             }
             if i == 0 {
                 first = o.found.join(", ");
@@ -209,9 +215,50 @@ fn main() {
         }
         println!("| {label} | {} | {fa}/{n} |", cells.join(", "));
     }
+    println!("\npairs: extra findings beyond the two effects: {} in {} cases {:?}", pair_conf.len(), 15 * n, pair_conf);
+    speed();
     let mut conf: std::collections::BTreeMap<String, usize> = Default::default();
     for (e, f) in confusion {
         *conf.entry(format!("{} → {}", e.name(), f)).or_default() += 1;
     }
     println!("\nconfusion (true effect → extra finding: count): {conf:?}");
+}
+
+/// Wall time of `tipforge diagnose` as a whole process on 3-trial cases (median of 5 runs): the
+/// default protocol (3 × 20 001 samples at 100 Hz), clean and with creep and a second time
+/// constant, and a 120 s protocol (3 × 12 001 samples, the size).
+fn speed() {
+    let bin = env!("CARGO_BIN_EXE_tipforge");
+    let dir = std::env::temp_dir().join(format!("tipforge-speed-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let sensor = std::fs::read_to_string("params/sensor.toml").unwrap();
+    let fx = sensor.replace("per_decade = 0.0 ", "per_decade = 0.01 ").replacen("fraction = 0.0            # share", "fraction = 0.05           # share", 1);
+    assert_ne!(fx, sensor);
+    std::fs::write(dir.join("sensor-fx.toml"), fx).unwrap();
+    let proto = std::fs::read_to_string("params/protocol-1000g.toml").unwrap().replace("hold_s = 20.0", "hold_s = 11.0");
+    std::fs::write(dir.join("protocol-120s.toml"), proto).unwrap();
+    println!("\n| diagnose case (3 trials) | samples per trial | wall s (median of 5) |\n|---|---|---|");
+    for (label, sensor, protocol) in [
+        ("clean, 0–1000 g, 20 s holds", "params/sensor.toml".to_string(), "params/protocol-1000g.toml".to_string()),
+        ("creep + second time constant, 20 s holds", dir.join("sensor-fx.toml").display().to_string(), "params/protocol-1000g.toml".to_string()),
+        ("clean, 11 s holds", "params/sensor.toml".to_string(), dir.join("protocol-120s.toml").display().to_string()),
+        ("creep + second time constant, 11 s holds", dir.join("sensor-fx.toml").display().to_string(), dir.join("protocol-120s.toml").display().to_string()),
+    ] {
+        let rec = dir.join("rec.csv");
+        let o = std::process::Command::new(bin).args(["simulate", "--trials", "3", "--sensor", &sensor, "--protocol", &protocol, "-o"]).arg(&rec).output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let recs: Vec<_> = (1..=3).map(|k| dir.join(format!("rec-{k}.csv"))).collect();
+        let samples = std::fs::read_to_string(&recs[0]).unwrap().lines().filter(|l| !l.starts_with('#')).count() - 1;
+        let mut times = Vec::new();
+        for _ in 0..5 {
+            let t0 = std::time::Instant::now();
+            let o = std::process::Command::new(bin).arg("diagnose").args(&recs).arg("--out").arg(dir.join("out")).output().unwrap();
+            times.push(t0.elapsed().as_secs_f64());
+            assert!(o.status.success());
+        }
+        times.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        println!("| {label} | {samples} | {:.2} |", times[2]);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -177,9 +177,14 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
                     Some(EdgeStep { t0_s: t0, tau_s: f.tau_s, from_s: from, to_s: to })
                 })
                 .collect();
-            let sigma = preprocess::noise_sigma(&rec.response);
+            let ceiling = saturation::ceiling(&rec.response);
+            // the noise of the samples off the ceiling (clipped samples have none and would lower it)
+            let sigma = match ceiling {
+                Some(c) => preprocess::noise_sigma(&rec.response.iter().copied().filter(|&v| v < c).collect::<Vec<_>>()),
+                None => preprocess::noise_sigma(&rec.response),
+            };
             // a step that reaches a clip is not first order at its edge: not searched
-            let edges: Vec<EdgeStep> = match saturation::clip_level(&[&rec.response], sigma) {
+            let edges: Vec<EdgeStep> = match saturation::clip_level(&[&rec.response], sigma).or(ceiling) {
                 Some(clip) => edges.into_iter().filter(|e| !rec.time_s.iter().zip(&rec.response).any(|(&t, &v)| t >= e.from_s && t <= e.to_s && v >= clip - 2.0 * sigma)).collect(),
                 None => edges,
             };

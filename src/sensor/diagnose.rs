@@ -370,6 +370,21 @@ fn all_rows(trials: &[Trial]) -> Vec<(usize, usize)> {
     trials.iter().enumerate().flat_map(|(i, tr)| (0..tr.t.len()).map(move |j| (i, j))).collect()
 }
 
+/// BIC of the fit on everything (no folds): what shape parameters are chosen by.
+fn train_bic(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(f64, Vec<f64>)> {
+    let rows = all_rows(trials);
+    let x = solve(d, trials, &rows, cfg, hat)?;
+    let mut buf = Vec::new();
+    let rss: f64 = rows.iter().map(|&(i, j)| (trials[i].v[j] - predict(d, i, &trials[i], trials[i].t[j], &x, cfg, hat, &mut buf)).powi(2)).sum();
+    let (n, p) = (rows.len() as f64, (d.ncols(cfg) + usize::from(cfg.clip.is_some())) as f64);
+    Some((n * (rss / n).max(1e-300).ln() + p * n.ln(), x))
+}
+
+/// Index of a term's first column in the design.
+fn term_col(d: &Design, cfg: &Config, e: Effect) -> usize {
+    d.n_levels() + d.n_shape(cfg) + cfg.effects.iter().take_while(|x| **x != e).map(|x| effect_cols(*x, cfg)).sum::<usize>()
+}
+
 /// Fit on everything (rmse, BIC) and on folds (held-out RMSE).
 fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score, Vec<f64>)> {
     score_on(d, trials, trials, cfg, hat)
@@ -881,7 +896,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         .collect();
     let d = Design { loads: loads.clone(), n_trials: trials.len(), n_keys, refit_onset, prior: sim.is_some() };
     // levels per load for the terms built on them (two-stage): from a first fit, or the simulator's
-    let hat = match sim {
+    let mut hat = match sim {
         Some(sb) => {
             let kind = recs[0].protocol_kind;
             let level = loads.iter().map(|&l| kind.grams(l).map(|g| sb.sensor.v_eq((g + sb.preload_g) / 1000.0 * super::sim::G_N_PER_KG)).unwrap_or(0.0)).collect();
@@ -961,15 +976,24 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
                 }
             };
             // shape parameters are chosen on the training fit (not on held-out data)
-            let mut pick: Option<(Config, Score, Vec<f64>)> = None;
+            let mut pick: Option<(Config, f64)> = None;
             for c in cands {
-                if let Some((s, x)) = score(&d, &trials, &c, &hat) {
-                    if pick.as_ref().is_none_or(|p| s.bic < p.1.bic) {
-                        pick = Some((c, s, x));
+                if let Some((b, xc)) = train_bic(&d, &trials, &c, &hat) {
+                    // a response to the size of the change has one sign after loading and
+                    // unloading alike; opposite signs are the change's own (signed) relaxation
+                    if e == Effect::SecondTimeConstant && c.drive == Drive::Size {
+                        let k = term_col(&d, &c, e);
+                        if xc[k] * xc[k + 1] <= 0.0 {
+                            continue;
+                        }
+                    }
+                    if pick.as_ref().is_none_or(|p| b < p.1) {
+                        pick = Some((c, b));
                     }
                 }
             }
-            let Some((c, s, x)) = pick else { continue };
+            let Some((c, _)) = pick else { continue };
+            let Some((s, x)) = score(&d, &trials, &c, &hat) else { continue };
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
             let dbic = s.bic - cur_score.bic;
             // a clip can only change the units that reach it: its evidence is tested there
@@ -991,7 +1015,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         }
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
         let dbic = s.bic - cur_score.bic;
-        let coef_idx = d.n_levels() + d.n_shape(&c) + c.effects.iter().take_while(|x| **x != e).map(|x| effect_cols(*x, &c)).sum::<usize>();
+        let coef_idx = term_col(&d, &c, e);
         let params = match e {
             Effect::Creep => serde_json::json!({"per_decade_fraction": x.get(coef_idx), "time_s": catalogue::creep::TIME_S}),
             Effect::Hysteresis => serde_json::json!({"fraction": x.get(coef_idx)}),
@@ -1014,6 +1038,22 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         cur = c;
         cur_score = s;
         cur_x = x;
+        // the terms are built on the levels (two-stage): take them from the model with its terms
+        // (the baseline's levels have absorbed part of the effects), and refit
+        if !d.prior {
+            for _ in 0..2 {
+                let mut level = vec![0.0];
+                level.extend(cur_x[d.n_trials..d.n_levels()].iter().copied());
+                let next = Hat { loads: loads.clone(), level };
+                let Some((s2, x2)) = score(&d, &trials, &cur, &next) else { break };
+                hat = next;
+                cur_score = s2;
+                cur_x = x2;
+            }
+            if let Some(f) = findings.last_mut() {
+                f.heldout_rmse_after = cur_score.heldout_rmse;
+            }
+        }
     }
     // backward check: every kept term must still pass the rule given all the others (a term taken
     // early can be made redundant by a later, better one — drift standing in for hysteresis). A

@@ -20,6 +20,16 @@ pub fn clip_level(series: &[&[f64]], sigma: f64) -> Option<f64> {
     (n > 0 && at as f64 >= 0.02 * n as f64).then_some(vmax)
 }
 
+/// A ceiling the raw samples touch: their largest value repeats exactly in at least 0.2 % of them
+/// (and 5 times) — a clipped ADC pins samples to one code, noise does not. Looser than
+/// [`clip_level`] (which must see a plateau): used to keep the edge-spike search away from steps
+/// that run into a clip too small to model.
+pub fn ceiling(values: &[f64]) -> Option<f64> {
+    let vmax = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let at = values.iter().filter(|&&v| v == vmax).count();
+    (at >= 5 && at as f64 >= 0.002 * values.len() as f64).then_some(vmax)
+}
+
 /// The plateaus (longer than 1 s) at the clip level.
 pub fn signature(recording: &str, t: &[f64], v: &[f64], level: f64, sigma: f64) -> Vec<Located> {
     let mut out = Vec::new();
@@ -58,5 +68,7 @@ mod tests {
         assert_eq!(signature("a", &t, &clipped, 1.5, 0.003).len(), 1);
         let ramp: Vec<f64> = t.iter().map(|&x| x * 0.3).collect();
         assert_eq!(clip_level(&[&ramp], 0.003), None);
+        assert_eq!(ceiling(&clipped), Some(1.5));
+        assert_eq!(ceiling(&ramp), None);
     }
 }
