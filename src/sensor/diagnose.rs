@@ -21,6 +21,9 @@ use serde::Serialize;
 pub const MIN_Z: f64 = 3.0;
 pub const MIN_DBIC: f64 = -10.0;
 pub const SCHEMA: &str = "tipforge.diagnosis/1";
+/// The second time constant's candidates, in multiples of the steps' median τ (a geometric grid).
+const TAU2_STEP: f64 = 1.371;
+const TAU2_GRID: [f64; 9] = [2.0, 2.742, 3.759, 5.154, 7.067, 9.689, 13.28, 18.21, 24.97];
 
 pub use super::catalogue::Effect;
 use super::catalogue::second_time_constant::Drive;
@@ -954,7 +957,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
                 continue;
             }
             let cands: Vec<Config> = match e {
-                Effect::SecondTimeConstant => [Drive::Change, Drive::Size].iter().flat_map(|&drive| [2.0, 3.0, 4.0, 5.5, 7.5, 10.0, 14.0, 20.0, 28.0].iter().map(move |m| (drive, m))).map(|(drive, m)| {
+                Effect::SecondTimeConstant => [Drive::Change, Drive::Size].iter().flat_map(|&drive| TAU2_GRID.iter().map(move |m| (drive, m))).map(|(drive, m)| {
                     let mut c = cur.clone();
                     c.effects.push(e);
                     c.tau2 = m * med_tau;
@@ -992,7 +995,30 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
                     }
                 }
             }
-            let Some((c, _)) = pick else { continue };
+            let Some((mut c, mut b0)) = pick else { continue };
+            // a second relaxation already in the model: its τ2 is refitted with the new term (a
+            // term left out biases it — drift lengthens τ2), by a local search on the grid
+            if e != Effect::SecondTimeConstant && c.effects.contains(&Effect::SecondTimeConstant) {
+                loop {
+                    let mut moved = false;
+                    for f in [1.0 / TAU2_STEP, TAU2_STEP] {
+                        let mut cand = c.clone();
+                        cand.tau2 *= f;
+                        if cand.tau2 < TAU2_GRID[0] * med_tau * 0.99 || cand.tau2 > TAU2_GRID[TAU2_GRID.len() - 1] * med_tau * 1.01 {
+                            continue;
+                        }
+                        if let Some((b, _)) = train_bic(&d, &trials, &cand, &hat) {
+                            if b < b0 {
+                                (c, b0, moved) = (cand, b, true);
+                                break;
+                            }
+                        }
+                    }
+                    if !moved {
+                        break;
+                    }
+                }
+            }
             let Some((s, x)) = score(&d, &trials, &c, &hat) else { continue };
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
             let dbic = s.bic - cur_score.bic;
