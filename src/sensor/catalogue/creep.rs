@@ -56,35 +56,12 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
 mod tests {
     use super::*;
 
-    struct Two;
-    impl Steps for Two {
-        fn len(&self) -> usize {
-            2
-        }
-        fn t0(&self, q: usize) -> f64 {
-            [10.0, 30.0][q]
-        }
-        fn tau(&self, _: usize) -> f64 {
-            1.0
-        }
-        fn dv(&self, q: usize) -> f64 {
-            [1.0, -1.0][q]
-        }
-        fn level(&self, q: usize) -> f64 {
-            [1.0, 0.0][q]
-        }
-        fn below_top(&self, q: usize) -> f64 {
-            [0.0, 1.0][q]
-        }
-        fn unloading(&self, q: usize) -> bool {
-            q == 1
-        }
-    }
 
     #[test]
     fn grows_per_decade_under_load_and_relaxes_after_removal() {
-        assert!((column(&Two, 0, 19.0) - 1.0).abs() < 1e-12); // log10(1 + 9) = 1
-        let after = column(&Two, 1, 40.0);
+        let steps = super::super::UpDown { t0: [10.0, 30.0], top: 1.0, after: 0.0 };
+        assert!((column(&steps, 0, 19.0) - 1.0).abs() < 1e-12); // log10(1 + 9) = 1
+        let after = column(&steps, 1, 40.0);
         assert!(after.abs() < 1e-3 && after > 0.0, "{after}");
     }
 

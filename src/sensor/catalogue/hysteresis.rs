@@ -46,33 +46,10 @@ mod tests {
 
     #[test]
     fn column_holds_the_gap_to_the_top_after_unloading() {
-        struct S;
-        impl Steps for S {
-            fn len(&self) -> usize {
-                2
-            }
-            fn t0(&self, q: usize) -> f64 {
-                [0.0, 10.0][q]
-            }
-            fn tau(&self, _: usize) -> f64 {
-                1.0
-            }
-            fn dv(&self, q: usize) -> f64 {
-                [2.0, -1.0][q]
-            }
-            fn level(&self, q: usize) -> f64 {
-                [2.0, 1.0][q]
-            }
-            fn below_top(&self, q: usize) -> f64 {
-                [0.0, 1.0][q]
-            }
-            fn unloading(&self, q: usize) -> bool {
-                q == 1
-            }
-        }
-        assert_eq!(column(&S, 0, 5.0), 0.0);
-        assert!((column(&S, 1, 30.0) - 1.0).abs() < 1e-6);
-        assert!(column(&S, 1, 10.5) < 0.5);
+        let steps = super::super::UpDown { t0: [0.0, 10.0], top: 2.0, after: 1.0 };
+        assert_eq!(column(&steps, 0, 5.0), 0.0);
+        assert!((column(&steps, 1, 30.0) - 1.0).abs() < 1e-6);
+        assert!(column(&steps, 1, 10.5) < 0.5);
     }
 
     #[test]

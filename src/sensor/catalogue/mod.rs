@@ -131,6 +131,40 @@ pub fn sig3(v: f64) -> String {
     format!("{v:.digits$}")
 }
 
+/// Test steps: the load goes up to a level `top` at `t0[0]` and down to `after` at `t0[1]`
+/// (levels above zero load, τ = 1 s).
+#[cfg(test)]
+pub(crate) struct UpDown {
+    pub t0: [f64; 2],
+    pub top: f64,
+    pub after: f64,
+}
+
+#[cfg(test)]
+impl Steps for UpDown {
+    fn len(&self) -> usize {
+        2
+    }
+    fn t0(&self, q: usize) -> f64 {
+        self.t0[q]
+    }
+    fn tau(&self, _: usize) -> f64 {
+        1.0
+    }
+    fn dv(&self, q: usize) -> f64 {
+        [self.top, self.after - self.top][q]
+    }
+    fn level(&self, q: usize) -> f64 {
+        [self.top, self.after][q]
+    }
+    fn below_top(&self, q: usize) -> f64 {
+        [0.0, self.top - self.after][q]
+    }
+    fn unloading(&self, q: usize) -> bool {
+        q == 1
+    }
+}
+
 /// Gaussian test noise (xorshift + Box–Muller), deterministic per seed.
 #[cfg(test)]
 pub(crate) fn test_noise(n: usize, sigma: f64, seed: u64) -> Vec<f64> {

@@ -92,40 +92,17 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
 mod tests {
     use super::*;
 
-    struct Up;
-    impl Steps for Up {
-        fn len(&self) -> usize {
-            2
-        }
-        fn t0(&self, q: usize) -> f64 {
-            [0.0, 20.0][q]
-        }
-        fn tau(&self, _: usize) -> f64 {
-            1.0
-        }
-        fn dv(&self, q: usize) -> f64 {
-            [1.0, -1.0][q]
-        }
-        fn level(&self, q: usize) -> f64 {
-            [1.0, 0.0][q]
-        }
-        fn below_top(&self, q: usize) -> f64 {
-            [0.0, 1.0][q]
-        }
-        fn unloading(&self, q: usize) -> bool {
-            q == 1
-        }
-    }
 
     #[test]
     fn change_drive_follows_the_sign_and_size_drive_does_not() {
+        let steps = super::super::UpDown { t0: [0.0, 20.0], top: 1.0, after: 0.0 };
         let mut a = [0.0];
-        columns(&Up, &[0, 1], 21.0, 8.0, Drive::Change, &mut a);
+        columns(&steps, &[0, 1], 21.0, 8.0, Drive::Change, &mut a);
         let mut b = [0.0];
-        columns(&Up, &[0], 1.0, 8.0, Drive::Change, &mut b);
+        columns(&steps, &[0], 1.0, 8.0, Drive::Change, &mut b);
         assert!(b[0] < 0.0 && a[0] > 0.0, "{a:?} {b:?}");
         let mut c = [0.0; 2];
-        columns(&Up, &[0, 1], 21.0, 8.0, Drive::Size, &mut c);
+        columns(&steps, &[0, 1], 21.0, 8.0, Drive::Size, &mut c);
         assert!(c[0] > 0.0 && c[1] > 0.0 && (c[1] - (-1.0f64 / 8.0).exp()).abs() < 1e-12);
     }
 
