@@ -383,6 +383,24 @@ fn train_bic(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(f
     Some((n * (rss / n).max(1e-300).ln() + p * n.ln(), x))
 }
 
+/// A term's parameters in the fitted model (the coefficients of its columns and its shape).
+fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde_json::Value {
+    let k = term_col(d, c, e);
+    // the terms scale with the model's levels: their sizes in the response unit, for the change
+    // from zero load to the highest load
+    let span = hat.max_level() - hat.level_of(d.loads[0]);
+    let at = |i: usize| x.get(i).copied().unwrap_or(f64::NAN);
+    match e {
+        Effect::Creep => serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span}),
+        Effect::Hysteresis => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span}),
+        Effect::SecondTimeConstant if c.drive == Drive::Size => serde_json::json!({"drive": c.drive.label(), "after_loading_fraction": at(k), "after_unloading_fraction": at(k + 1), "tau2_s": c.tau2, "jump_after_loading_full_change": at(k) * span.abs(), "jump_after_unloading_full_change": at(k + 1) * span.abs()}),
+        Effect::SecondTimeConstant => serde_json::json!({"drive": c.drive.label(), "fraction": at(k), "tau2_s": c.tau2}),
+        Effect::BaselineDrift => serde_json::json!({"rate_per_s": at(k)}),
+        Effect::Saturation => serde_json::json!({"level": c.clip}),
+        Effect::HandlingSpikes => serde_json::json!({}),
+    }
+}
+
 /// Index of a term's first column in the design.
 fn term_col(d: &Design, cfg: &Config, e: Effect) -> usize {
     d.n_levels() + d.n_shape(cfg) + cfg.effects.iter().take_while(|x| **x != e).map(|x| effect_cols(*x, cfg)).sum::<usize>()
@@ -1041,16 +1059,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         }
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
         let dbic = s.bic - cur_score.bic;
-        let coef_idx = term_col(&d, &c, e);
-        let params = match e {
-            Effect::Creep => serde_json::json!({"per_decade_fraction": x.get(coef_idx), "time_s": catalogue::creep::TIME_S}),
-            Effect::Hysteresis => serde_json::json!({"fraction": x.get(coef_idx)}),
-            Effect::SecondTimeConstant if c.drive == Drive::Size => serde_json::json!({"drive": c.drive.label(), "after_loading_fraction": x.get(coef_idx), "after_unloading_fraction": x.get(coef_idx + 1), "tau2_s": c.tau2}),
-            Effect::SecondTimeConstant => serde_json::json!({"drive": c.drive.label(), "fraction": x.get(coef_idx), "tau2_s": c.tau2}),
-            Effect::BaselineDrift => serde_json::json!({"rate_per_s": x.get(coef_idx)}),
-            Effect::Saturation => serde_json::json!({"level": c.clip}),
-            Effect::HandlingSpikes => serde_json::json!({}),
-        };
+        let params = term_params(&d, &c, &x, e, &hat);
         findings.push(Finding {
             effect: e.name(),
             confidence: if dbic < -100.0 && gain > 0.05 { "high" } else if dbic < -30.0 { "medium" } else { "low" },
@@ -1112,6 +1121,12 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         cur = c;
         cur_score = s_wo;
         cur_x = x_wo;
+    }
+    // the terms' parameters as in the final model (all terms fitted jointly, levels re-estimated)
+    for f in findings.iter_mut() {
+        if let Some(&e) = cur.effects.iter().find(|e| e.name() == f.effect) {
+            f.term.params = term_params(&d, &cur, &cur_x, e, &hat);
+        }
     }
     // saturation the free levels absorbed: the clipped plateau is its own evidence (samples piled
     // at one value with no noise on them)
