@@ -246,9 +246,6 @@ struct TrialSteps<'a> {
 }
 
 impl Steps for TrialSteps<'_> {
-    fn len(&self) -> usize {
-        self.tr.segs.len()
-    }
     fn t0(&self, q: usize) -> f64 {
         self.cfg.t0_of(self.i, q, &self.tr.segs[q])
     }

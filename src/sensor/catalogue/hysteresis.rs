@@ -17,7 +17,7 @@ pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
     h(cur) + (prev - h(cur)) * (-(t - s.t0(cur)) / s.tau(cur)).exp()
 }
 
-fn late_half<'a>(h: &'a Hold) -> Vec<f64> {
+fn late_half(h: &Hold) -> Vec<f64> {
     let mid = 0.5 * (h.t0_s + h.end_s);
     (0..h.t.len()).filter(|&j| h.t[j] >= mid.max(h.t0_s + 3.0 * h.tau_s) && h.t[j] < h.end_s).map(|j| h.r[j]).collect()
 }

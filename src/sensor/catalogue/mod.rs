@@ -54,7 +54,6 @@ impl Effect {
 
 /// The steps of one trial as the model terms see them (all in the response unit and seconds).
 pub trait Steps {
-    fn len(&self) -> usize;
     /// Onset of step q.
     fn t0(&self, q: usize) -> f64;
     /// First-order time constant of step q.
@@ -142,9 +141,6 @@ pub(crate) struct UpDown {
 
 #[cfg(test)]
 impl Steps for UpDown {
-    fn len(&self) -> usize {
-        2
-    }
     fn t0(&self, q: usize) -> f64 {
         self.t0[q]
     }
