@@ -135,6 +135,7 @@ impl Hat {
     }
 }
 
+#[derive(Clone)]
 struct Design {
     loads: Vec<f64>,
     n_trials: usize,
@@ -396,6 +397,24 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
         Effect::Saturation => serde_json::json!({"level": c.clip}),
         Effect::HandlingSpikes => serde_json::json!({}),
     }
+}
+
+/// The final refit's onsets: one Gauss–Newton step on every step's onset (linearised shifts,
+/// fitted with everything else), each shift held to ±0.1 s so an onset stays an onset, then the
+/// model refitted at the shifted onsets. Returns the trials with their shifted steps and the fit.
+fn refit_onsets(d: &Design, fit: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Vec<Trial>, Vec<f64>)> {
+    let all: Vec<(usize, usize)> = fit.iter().enumerate().flat_map(|(k, tr)| (0..tr.segs.len()).map(move |s| (k, s))).collect();
+    let df = Design { refit_onset: all.clone(), ..d.clone() };
+    let x = solve(&df, fit, &all_rows(fit), cfg, hat)?;
+    let off = df.n_levels() + df.n_keys;
+    let mut shifted = fit.to_vec();
+    for (q, &(k, s)) in all.iter().enumerate() {
+        if !d.refit_onset.contains(&(k, s)) {
+            shifted[k].segs[s].t0 += x[off + q].clamp(-0.1, 0.1);
+        }
+    }
+    let x2 = solve(d, &shifted, &all_rows(&shifted), cfg, hat)?;
+    Some((shifted, x2))
 }
 
 /// Index of a term's first column in the design.
@@ -1168,10 +1187,32 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     // predictions at every raw sample
     let mut predictions = Vec::new();
     let mut buf = Vec::new();
-    for (i, (rec, tr)) in recs.iter().zip(&trials).enumerate() {
+    // the final refit ("model it and refit"): when terms were chosen, the model is refitted with
+    // every step's onset free as well (part 1 fitted them with the first-order shape the terms
+    // change), and so is the baseline, on the data as given — the two keep the same freedom. During
+    // selection the onsets stay at their part-1 values: free there, they take up part of a term's
+    // shape. Without a term nothing is refitted (the baseline stands).
+    let base_fit: &[Trial] = if has_spikes { &given } else { &trials };
+    let mut final_trials = trials.clone();
+    let mut final_base = base_eval.clone();
+    let (xb, cur_x) = if !d.prior && !cur.effects.is_empty() {
+        match (refit_onsets(&d, base_fit, &base_cfg, &hat0), refit_onsets(&d, &trials, &cur, &hat)) {
+            (Some((gb, xb2)), Some((gc, xc2))) => {
+                for (k, tr) in final_base.iter_mut().enumerate() {
+                    tr.segs = gb[k].segs.clone();
+                }
+                final_trials = gc;
+                (xb2, xc2)
+            }
+            _ => (xb.clone(), cur_x.clone()),
+        }
+    } else {
+        (xb.clone(), cur_x.clone())
+    };
+    for (i, (rec, tr)) in recs.iter().zip(&final_trials).enumerate() {
         // at the raw samples: point values, not filtered-sample averages
         let tr = &Trial { half_span_s: 0.0, ..tr.clone() };
-        let be = &Trial { half_span_s: 0.0, ..base_eval[i].clone() };
+        let be = &Trial { half_span_s: 0.0, ..final_base[i].clone() };
         let baseline: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, be, t, &xb, &base_cfg, &hat0, &mut buf)).collect();
         let improved: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, tr, t, &cur_x, &cur, &hat, &mut buf)).collect();
         let windows = findings.iter().flat_map(|f| f.windows.iter()).filter(|w| w.recording == rec.source).map(|w| (w.start_s, w.end_s)).collect();
