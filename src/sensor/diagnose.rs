@@ -951,22 +951,21 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     let hat0 = hat.clone();
     // the baseline: first-order steps with their levels and time constants refitted jointly
     let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![] };
-    // (fitted to the data as given, scored on the data without the handling spikes; the diagnosis
-    // works on the latter, and the spikes are reported and excluded below)
     // fitted to the series as given (with the steps fitted to it), scored on the series without
-    // the spikes (with the same steps)
-    let base_steps = |tr: &Trial, k: usize| given_trials.as_ref().map(|g| g[k].segs.clone()).unwrap_or_else(|| tr.segs.clone());
-    let given: Vec<Trial> = trials.iter().enumerate().map(|(k, tr)| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), segs: base_steps(tr, k), ..tr.clone() }).collect();
-    let base_eval: Vec<Trial> = trials.iter().enumerate().map(|(k, tr)| Trial { segs: base_steps(tr, k), ..tr.clone() }).collect();
-    let has_spikes = has_spikes || trials.iter().any(|tr| tr.t != tr.given_t || tr.v != tr.given_v);
-    let (base, xb) = score_on(&d, if has_spikes { &given } else { &trials }, &base_eval, &base_cfg, &hat)?;
-    let clean_cfg = base_cfg.clone();
-    let (clean, xc) = if has_spikes { score(&d, &trials, &clean_cfg, &hat)? } else { (base.clone(), xb.clone()) };
+    // the spikes (with the same steps); the diagnosis works on the latter, and the spikes are
+    // reported and excluded below
+    let base_eval: Vec<Trial> = match &given_trials {
+        Some(g) => trials.iter().zip(g).map(|(tr, gt)| Trial { segs: gt.segs.clone(), ..tr.clone() }).collect(),
+        None => trials.clone(),
+    };
+    let base_fit: Vec<Trial> = if has_spikes { base_eval.iter().map(|tr| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), ..tr.clone() }).collect() } else { base_eval.clone() };
+    let (base, xb) = score_on(&d, &base_fit, &base_eval, &base_cfg, &hat)?;
+    let (clean, xc) = if has_spikes { score(&d, &trials, &base_cfg, &hat)? } else { (base.clone(), xb.clone()) };
     let clip = clip_level(&trials);
     // locate: every test on the baseline's residuals (the clean fit), before any term is chosen
     let located: Vec<LocatedWindow> = {
-        let holds = hold_data(&d, &trials, &xc, &clean_cfg, &hat);
-        let mut all: Vec<LocatedWindow> = locate(&d, &trials, &xc, &clean_cfg, &hat).into_iter().map(|w| LocatedWindow { test: "whiteness", recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic }).collect();
+        let holds = hold_data(&d, &trials, &xc, &base_cfg, &hat);
+        let mut all: Vec<LocatedWindow> = locate(&d, &trials, &xc, &base_cfg, &hat).into_iter().map(|w| LocatedWindow { test: "whiteness", recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic }).collect();
         for e in [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation, Effect::HandlingSpikes] {
             all.extend(signature(e, &holds, &trials, clip, &report).into_iter().map(|w| LocatedWindow { test: e.name(), recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic }));
         }
@@ -980,7 +979,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
         super::preprocess::median(&mut t)
     };
-    let mut cur = clean_cfg.clone();
+    let mut cur = base_cfg.clone();
     let (mut cur_score, mut cur_x) = (clean.clone(), xc.clone());
     let mut findings = Vec::new();
     let mut decisions = Vec::new();
@@ -1192,11 +1191,10 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     // change), and so is the baseline, on the data as given — the two keep the same freedom. During
     // selection the onsets stay at their part-1 values: free there, they take up part of a term's
     // shape. Without a term nothing is refitted (the baseline stands).
-    let base_fit: &[Trial] = if has_spikes { &given } else { &trials };
     let mut final_trials = trials.clone();
     let mut final_base = base_eval.clone();
     let (xb, cur_x) = if !d.prior && !cur.effects.is_empty() {
-        match (refit_onsets(&d, base_fit, &base_cfg, &hat0), refit_onsets(&d, &trials, &cur, &hat)) {
+        match (refit_onsets(&d, &base_fit, &base_cfg, &hat0), refit_onsets(&d, &trials, &cur, &hat)) {
             (Some((gb, xb2)), Some((gc, xc2))) => {
                 for (k, tr) in final_base.iter_mut().enumerate() {
                     tr.segs = gb[k].segs.clone();

@@ -5,7 +5,7 @@
 //! Term: a linear trend in time from the trial's start.
 //! Physics: thermal or electronic drift.
 
-use super::{mean_se, sig3, Hold, Located, MIN_SIGNATURE_Z};
+use super::{offset_z, sig3, Hold, Located, MIN_SIGNATURE_Z};
 
 pub const EXPLANATION: &str = "a load-independent offset changes steadily with time (thermal or electronic drift), modelled as a linear trend";
 
@@ -21,6 +21,7 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
     let mut out = Vec::new();
     let lowest = holds.iter().map(|h| h.load).fold(f64::INFINITY, f64::min);
     let mut trials: Vec<usize> = holds.iter().map(|h| h.trial).collect();
+    trials.sort_unstable();
     trials.dedup();
     for k in trials {
         let zero: Vec<&Hold> = holds.iter().filter(|h| h.trial == k && h.load == lowest).collect();
@@ -28,16 +29,11 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
         if zero.len() < 2 {
             continue;
         }
-        let settled = |h: &Hold| -> Vec<f64> { (0..h.t.len()).filter(|&j| h.t[j] >= h.t0_s + 3.0 * h.tau_s && h.t[j] < h.end_s).map(|j| h.r[j]).collect() };
-        let (a, b) = (settled(first), settled(last));
-        if a.len() < 10 || b.len() < 10 {
-            continue;
-        }
-        let ((ma, sa), (mb, sb)) = (mean_se(&a), mean_se(&b));
-        let z = (mb - ma) / (sa * sa + sb * sb).sqrt().max(1e-300);
+        let settled = |h: &Hold| h.residuals_from(h.t0_s + 3.0 * h.tau_s);
+        let Some((d, z)) = offset_z(&settled(last), &settled(first)) else { continue };
         if z.abs() >= MIN_SIGNATURE_Z {
             let dt = 0.5 * (last.t0_s + last.end_s) - 0.5 * (first.t0_s + first.end_s);
-            let stat = format!("level at zero load moved by {} over {:.0} s (z = {:.1})", sig3(mb - ma), dt, z);
+            let stat = format!("level at zero load moved by {} over {:.0} s (z = {:.1})", sig3(d), dt, z);
             for h in [first, last] {
                 out.push(Located { recording: h.recording.to_string(), start_s: h.t0_s, end_s: h.end_s, statistic: stat.clone(), z: z.abs() });
             }
@@ -57,11 +53,7 @@ mod tests {
         let a = super::super::test_noise(1000, 0.003, 7);
         let b = super::super::test_noise(1000, 0.003, 8);
         let moved: Vec<f64> = b.iter().map(|e| e + 0.004).collect();
-        let run = |last: &[f64]| {
-            let first = Hold { recording: "a", t: &t1, r: &a, sigma: 0.003, t0_s: 0.0, end_s: 10.0, tau_s: 0.3, load: 0.0, prev: 0.0, trial: 0 };
-            let end = Hold { recording: "a", t: &t2, r: last, sigma: 0.003, t0_s: 200.0, end_s: 210.0, tau_s: 0.3, load: 0.0, prev: 1.0, trial: 0 };
-            signature(&[first, end]).len()
-        };
+        let run = |last: &[f64]| signature(&[super::super::test_hold(&t1, &a, 0.0, 10.0, 0.0, 0.0), super::super::test_hold(&t2, last, 200.0, 210.0, 0.0, 1.0)]).len();
         assert_eq!(run(&moved), 2);
         assert_eq!(run(&b), 0);
         assert_eq!(column(15.0, 5.0), 10.0);

@@ -70,7 +70,7 @@ mod tests {
         let t: Vec<f64> = (0..2000).map(|i| 10.0 + i as f64 * 0.01).collect();
         let noise = super::super::test_noise(2000, 0.003, 3);
         let trend: Vec<f64> = t.iter().zip(&noise).map(|(x, e)| e + 0.01 * (1.0 + (x - 10.0)).log10()).collect();
-        let flags = |r: &[f64]| signature(&[Hold { recording: "a", t: &t, r, sigma: 0.003, t0_s: 10.0, end_s: 30.0, tau_s: 0.5, load: 1.0, prev: 0.0, trial: 0 }]).len();
+        let flags = |r: &[f64]| signature(&[super::super::test_hold(&t, r, 10.0, 30.0, 1.0, 0.0)]).len();
         assert_eq!(flags(&trend), 1);
         assert_eq!(flags(&noise), 0);
     }

@@ -6,7 +6,7 @@
 //! and this load's level, reached with the step's own time constant.
 //! Physics: the contact area remembers the highest load.
 
-use super::{mean_se, sig3, Hold, Located, Steps, MIN_SIGNATURE_Z};
+use super::{offset_z, sig3, Hold, Located, Steps, MIN_SIGNATURE_Z};
 
 pub const EXPLANATION: &str = "at the same load the unloading branch stays away from the loading branch: the contact area remembers the highest load, modelled as an offset proportional to the gap to the maximum-load level";
 
@@ -17,9 +17,9 @@ pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
     h(cur) + (prev - h(cur)) * (-(t - s.t0(cur)) / s.tau(cur)).exp()
 }
 
+/// The later half of a hold (and after 3τ).
 fn late_half(h: &Hold) -> Vec<f64> {
-    let mid = 0.5 * (h.t0_s + h.end_s);
-    (0..h.t.len()).filter(|&j| h.t[j] >= mid.max(h.t0_s + 3.0 * h.tau_s) && h.t[j] < h.end_s).map(|j| h.r[j]).collect()
+    h.residuals_from((0.5 * (h.t0_s + h.end_s)).max(h.t0_s + 3.0 * h.tau_s))
 }
 
 /// Unloading holds whose residual sits off the loading hold's at the same load (same trial).
@@ -27,14 +27,9 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
     let mut out = Vec::new();
     for u in holds.iter().filter(|h| h.load < h.prev) {
         let Some(l) = holds.iter().find(|h| h.trial == u.trial && h.load > h.prev && h.load == u.load) else { continue };
-        let (a, b) = (late_half(u), late_half(l));
-        if a.len() < 10 || b.len() < 10 {
-            continue;
-        }
-        let ((ma, sa), (mb, sb)) = (mean_se(&a), mean_se(&b));
-        let z = (ma - mb) / (sa * sa + sb * sb).sqrt().max(1e-300);
+        let Some((d, z)) = offset_z(&late_half(u), &late_half(l)) else { continue };
         if z.abs() >= MIN_SIGNATURE_Z {
-            out.push(Located { recording: u.recording.to_string(), start_s: u.t0_s, end_s: u.end_s, statistic: format!("unloading branch off the loading branch at load {}: {} (z = {:.1})", u.load, sig3(ma - mb), z), z: z.abs() });
+            out.push(Located { recording: u.recording.to_string(), start_s: u.t0_s, end_s: u.end_s, statistic: format!("unloading branch off the loading branch at load {}: {} (z = {:.1})", u.load, sig3(d), z), z: z.abs() });
         }
     }
     out
@@ -58,11 +53,7 @@ mod tests {
         let a = super::super::test_noise(2000, 0.003, 5);
         let b = super::super::test_noise(2000, 0.003, 6);
         let off: Vec<f64> = b.iter().map(|e| e + 0.003).collect();
-        let run = |unl: &[f64]| {
-            let l = Hold { recording: "a", t: &t, r: &a, sigma: 0.003, t0_s: 0.0, end_s: 20.0, tau_s: 0.5, load: 1.0, prev: 0.0, trial: 0 };
-            let u = Hold { recording: "a", t: &t, r: unl, sigma: 0.003, t0_s: 0.0, end_s: 20.0, tau_s: 0.5, load: 1.0, prev: 2.0, trial: 0 };
-            signature(&[l, u]).len()
-        };
+        let run = |unl: &[f64]| signature(&[super::super::test_hold(&t, &a, 0.0, 20.0, 1.0, 0.0), super::super::test_hold(&t, unl, 0.0, 20.0, 1.0, 2.0)]).len();
         assert_eq!(run(&off), 1);
         assert_eq!(run(&b), 0);
     }

@@ -86,6 +86,23 @@ pub struct Hold<'a> {
     pub trial: usize,
 }
 
+impl Hold<'_> {
+    /// The residuals from `from_s` to the hold's end.
+    pub fn residuals_from(&self, from_s: f64) -> Vec<f64> {
+        (0..self.t.len()).filter(|&j| self.t[j] >= from_s && self.t[j] < self.end_s).map(|j| self.r[j]).collect()
+    }
+}
+
+/// The offset of mean(a) from mean(b) and its size in standard errors (autocorrelation-corrected);
+/// None with fewer than 10 samples on a side.
+pub fn offset_z(a: &[f64], b: &[f64]) -> Option<(f64, f64)> {
+    if a.len() < 10 || b.len() < 10 {
+        return None;
+    }
+    let ((ma, sa), (mb, sb)) = (mean_se(a), mean_se(b));
+    Some((ma - mb, (ma - mb) / (sa * sa + sb * sb).sqrt().max(1e-300)))
+}
+
 /// A window where an effect's signature shows, with its statistic.
 #[derive(Debug, Clone, Serialize)]
 pub struct Located {
@@ -159,6 +176,12 @@ impl Steps for UpDown {
     fn unloading(&self, q: usize) -> bool {
         q == 1
     }
+}
+
+/// A test hold: noise 3 mV, τ = 0.5 s, trial 0.
+#[cfg(test)]
+pub(crate) fn test_hold<'a>(t: &'a [f64], r: &'a [f64], t0_s: f64, end_s: f64, load: f64, prev: f64) -> Hold<'a> {
+    Hold { recording: "a", t, r, sigma: 0.003, t0_s, end_s, tau_s: 0.5, load, prev, trial: 0 }
 }
 
 /// Gaussian test noise (xorshift + Box–Muller), deterministic per seed.

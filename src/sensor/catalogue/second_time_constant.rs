@@ -77,7 +77,7 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
         let z = (runs - mu) / var.max(1e-300).sqrt();
         // a filtered series has fewer runs than white noise: judge against the whole hold's own
         // run rate (late part), not against independence
-        let late: Vec<f64> = (0..h.t.len()).filter(|&j| h.t[j] >= stop && h.t[j] < h.end_s).map(|j| h.r[j]).collect();
+        let late = h.residuals_from(stop);
         let late_rate = if late.len() >= 20 { late.windows(2).filter(|p| (p[0] > 0.0) != (p[1] > 0.0)).count() as f64 / (late.len() - 1) as f64 } else { 0.5 };
         let expected = 1.0 + late_rate * (n - 1.0);
         let z_rel = (runs - expected) / var.max(1e-300).sqrt();
@@ -111,7 +111,7 @@ mod tests {
         let t: Vec<f64> = (0..2000).map(|i| i as f64 * 0.01).collect();
         let e = super::super::test_noise(2000, 0.003, 9);
         let slow: Vec<f64> = t.iter().zip(&e).map(|(x, n)| n + 0.02 * ((-x / 8.0).exp() - (-x / 0.5).exp())).collect();
-        let flags = |r: &[f64]| signature(&[Hold { recording: "a", t: &t, r, sigma: 0.003, t0_s: 0.0, end_s: 20.0, tau_s: 0.5, load: 1.0, prev: 0.0, trial: 0 }]).len();
+        let flags = |r: &[f64]| signature(&[super::super::test_hold(&t, r, 0.0, 20.0, 1.0, 0.0)]).len();
         assert_eq!(flags(&slow), 1);
         assert_eq!(flags(&e), 0);
     }
