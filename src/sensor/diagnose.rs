@@ -887,6 +887,19 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
 /// With `sim`, the simulator's first-order prediction for each trial's logged protocol (at the
 /// onsets found in the data) is the baseline; only per-trial offsets and catalogue terms are fitted.
 pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Diagnosis> {
+    run(recs, opts, sim, false)
+}
+
+/// The estimation floor of the model's first-order part: [`diagnose`] with the final refit done
+/// even when no term is chosen, so its `baseline` predictions are what the improved model reduces
+/// to when the data hold no effect. On the same noise without an effect, their error to the truth
+/// is the least error any model with the baseline's freedom (levels, time constants, onsets) plus
+/// terms can be expected to reach (the discovery benchmark's floor column).
+pub fn refitted_baseline(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
+    run(recs, opts, None, true)
+}
+
+fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool) -> Option<Diagnosis> {
     let (report, prep) = analyze::analyze(recs, opts);
     let mut trials = trials_from(&report, &prep, recs, opts);
     // the baseline is the paper's model fitted to the data as given: with handling spikes found,
@@ -1193,7 +1206,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     // shape. Without a term nothing is refitted (the baseline stands).
     let mut final_trials = trials.clone();
     let mut final_base = base_eval.clone();
-    let (xb, cur_x) = if !d.prior && !cur.effects.is_empty() {
+    let (xb, cur_x) = if !d.prior && (!cur.effects.is_empty() || refit_always) {
         match (refit_onsets(&d, &base_fit, &base_cfg, &hat0), refit_onsets(&d, &trials, &cur, &hat)) {
             (Some((gb, xb2)), Some((gc, xc2))) => {
                 for (k, tr) in final_base.iter_mut().enumerate() {
