@@ -101,7 +101,9 @@ fn run_with_floor(s: &SensorParams, s0: &SensorParams, p: &ProtocolParams, seed:
     let recs: Vec<_> = sims.iter().map(|x| x.0.clone()).collect();
     let d = refitted_baseline(&recs, &Default::default()).expect("diagnosis");
     let ef: f64 = d.predictions.iter().zip(&sims).map(|(pr, (_, truth))| sq_err(&pr.baseline, &truth.clean_v)).sum();
+    let eb = o.floor;
     o.floor = (ef / o.floor.max(1e-300)).sqrt();
+    if std::env::var("TF_DEBUG").is_ok() { let n: f64 = sims.iter().map(|x| x.1.clean_v.len() as f64).sum(); eprintln!("{seed}: floor {:.4} mV baseline {:.4} mV improved {:.4} mV", 1e3 * (ef / n).sqrt(), 1e3 * (eb / n).sqrt(), 1e3 * o.ratio * (eb / n).sqrt()); }
     o
 }
 

@@ -194,12 +194,12 @@ impl Design {
                 if cfg.fixed(i, s).is_some() {
                     continue;
                 }
-                let x = (t - sg.t0) / sg.tau;
                 let dv = hat.level_of(sg.load) - hat.level_of(sg.prev);
-                out[col + sg.key] += dv * x * (-x).exp();
+                // −∂/∂ln τ of dv·rise: the coefficient is −Δ ln τ
+                out[col + sg.key] -= dv * rise_dln_tau(t, sg.t0, sg.tau, h);
                 if let Some(q) = self.refit_onset.iter().position(|&k| k == (i, s)) {
-                    // ∂/∂t0 of dv·(1 − e^(−(t − t0)/τ)): the coefficient is the onset's shift (s)
-                    out[col + self.n_keys + q] = -dv * (-x).exp() / sg.tau;
+                    // ∂/∂t0 of dv·rise: the coefficient is the onset's shift (s)
+                    out[col + self.n_keys + q] = dv * rise_dt0(t, sg.t0, sg.tau, h);
                 }
             }
             col += self.n_keys + self.refit_onset.len();
@@ -234,6 +234,31 @@ fn block_rise(t: f64, t0: f64, tau: f64, h: f64) -> f64 {
         let a = t + h - t0;
         (a - tau * (1.0 - (-a / tau).exp())) / (2.0 * h)
     }
+}
+
+/// ∂/∂t0 of [`block_rise`].
+fn rise_dt0(t: f64, t0: f64, tau: f64, h: f64) -> f64 {
+    if h <= 0.0 {
+        return if t >= t0 { -(-(t - t0) / tau).exp() / tau } else { 0.0 };
+    }
+    if t - h >= t0 {
+        let x = h / tau;
+        -(-(t - t0) / tau).exp() * x.sinh() / x / tau
+    } else if t + h <= t0 {
+        0.0
+    } else {
+        -(1.0 - (-(t + h - t0) / tau).exp()) / (2.0 * h)
+    }
+}
+
+/// ∂/∂ln τ of [`block_rise`] (central difference; exact enough for a Gauss–Newton column).
+fn rise_dln_tau(t: f64, t0: f64, tau: f64, h: f64) -> f64 {
+    if h <= 0.0 {
+        let x = (t - t0) / tau;
+        return if t >= t0 { -x * (-x).exp() } else { 0.0 };
+    }
+    let e = 1e-4_f64;
+    (block_rise(t, t0, tau * e.exp(), h) - block_rise(t, t0, tau * (-e).exp(), h)) / (2.0 * e)
 }
 
 /// One trial's steps as the catalogue's terms see them.
@@ -399,22 +424,82 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
     }
 }
 
-/// The final refit's onsets: one Gauss–Newton step on every step's onset (linearised shifts,
-/// fitted with everything else), each shift held to ±0.1 s so an onset stays an onset, then the
-/// model refitted at the shifted onsets. Returns the trials with their shifted steps and the fit.
+/// The final refit of the first-order part's shape: every step's onset and every step key's time
+/// constant, by Gauss–Newton on their linearised shifts (fitted with everything else) until the
+/// shifts are below 0.1 ms and 0.01 % (at most 12 rounds). An onset stays within ±0.1 s of its
+/// part-1 value and a time constant within a factor 2 (each round's change within ±30 %), so an
+/// onset stays an onset; then the model is refitted at the shifted shape. Part 1 fitted each
+/// step's onset and time constant with the first-order shape alone, which the terms change (a
+/// second relaxation lengthens the apparent τ). Returns the trials with their shifted steps and
+/// the fit.
 fn refit_onsets(d: &Design, fit: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Vec<Trial>, Vec<f64>)> {
     let all: Vec<(usize, usize)> = fit.iter().enumerate().flat_map(|(k, tr)| (0..tr.segs.len()).map(move |s| (k, s))).collect();
     let df = Design { refit_onset: all.clone(), ..d.clone() };
-    let x = solve(&df, fit, &all_rows(fit), cfg, hat)?;
-    let off = df.n_levels() + df.n_keys;
     let mut shifted = fit.to_vec();
-    for (q, &(k, s)) in all.iter().enumerate() {
-        if !d.refit_onset.contains(&(k, s)) {
-            shifted[k].segs[s].t0 += x[off + q].clamp(-0.1, 0.1);
+    let off = df.n_levels() + df.n_keys;
+    let free_tau = cfg.tau_free && !d.prior;
+    for _ in 0..12 {
+        let x = solve(&df, &shifted, &all_rows(&shifted), cfg, hat)?;
+        let mut moved = 0f64;
+        for (q, &(k, s)) in all.iter().enumerate() {
+            let was = &fit[k].segs[s];
+            let sg = &mut shifted[k].segs[s];
+            if !d.refit_onset.contains(&(k, s)) {
+                let t0 = (sg.t0 + x[off + q]).clamp(was.t0 - 0.1, was.t0 + 0.1);
+                moved = moved.max((t0 - sg.t0).abs() / 1e-4);
+                sg.t0 = t0;
+            }
+            if free_tau && cfg.fixed(k, s).is_none() {
+                // the column's coefficient is −Δ ln τ
+                let tau = (sg.tau * (-x[df.n_levels() + sg.key].clamp(-0.3, 0.3)).exp()).clamp(was.tau / 4.0, was.tau * 4.0);
+                moved = moved.max((tau / sg.tau).ln().abs() / 1e-4);
+                sg.tau = tau;
+            }
+        }
+        if moved < 1.0 {
+            break;
         }
     }
     let x2 = solve(d, &shifted, &all_rows(&shifted), cfg, hat)?;
     Some((shifted, x2))
+}
+
+/// τ2 of the second relaxation refined by golden-section search in log τ2 within one grid step
+/// either side of the chosen value, on the training BIC (the number of parameters is the same
+/// throughout, so this is the training RSS). Returns the refined configuration and its score.
+fn refine_tau2(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Config, Score, Vec<f64>)> {
+    let at = |ln_tau2: f64| {
+        let mut c = cfg.clone();
+        c.tau2 = ln_tau2.exp();
+        train_bic(d, trials, &c, hat).map(|(b, _)| b).unwrap_or(f64::INFINITY)
+    };
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut a, mut b) = (cfg.tau2.ln() - TAU2_STEP.ln(), cfg.tau2.ln() + TAU2_STEP.ln());
+    let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
+    let (mut f1, mut f2) = (at(x1), at(x2));
+    // 14 steps shrink the bracket to 0.2 % of a grid step
+    for _ in 0..14 {
+        if f1 < f2 {
+            b = x2;
+            (x2, f2) = (x1, f1);
+            x1 = b - g * (b - a);
+            f1 = at(x1);
+        } else {
+            a = x1;
+            (x1, f1) = (x2, f2);
+            x2 = a + g * (b - a);
+            f2 = at(x2);
+        }
+    }
+    let best = if f1 < f2 { x1 } else { x2 };
+    let base = at(cfg.tau2.ln());
+    if f1.min(f2) >= base {
+        return None;
+    }
+    let mut c = cfg.clone();
+    c.tau2 = best.exp();
+    let (s, x) = score(d, trials, &c, hat)?;
+    Some((c, s, x))
 }
 
 /// Index of a term's first column in the design.
@@ -1150,6 +1235,16 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         cur_score = s_wo;
         cur_x = x_wo;
     }
+    // the second relaxation's τ2 was chosen on a grid (steps of ×1.371): refined between the grid
+    // points around it by golden-section search on the training fit (the same rule that chose it),
+    // so the final model's slow relaxation is not off by up to half a grid step
+    if cur.effects.contains(&Effect::SecondTimeConstant) {
+        if let Some((c, s, x)) = refine_tau2(&d, &trials, &cur, &hat) {
+            cur = c;
+            cur_score = s;
+            cur_x = x;
+        }
+    }
     // the terms' parameters as in the final model (all terms fitted jointly, levels re-estimated)
     for f in findings.iter_mut() {
         if let Some(&e) = cur.effects.iter().find(|e| e.name() == f.effect) {
@@ -1207,7 +1302,18 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     let mut final_trials = trials.clone();
     let mut final_base = base_eval.clone();
     let (xb, cur_x) = if !d.prior && (!cur.effects.is_empty() || refit_always) {
-        match (refit_onsets(&d, &base_fit, &base_cfg, &hat0), refit_onsets(&d, &trials, &cur, &hat)) {
+        let mut cur_r = refit_onsets(&d, &trials, &cur, &hat);
+        // τ2 and the first-order shape depend on each other: τ2 refined again on the refitted
+        // shape, and the shape refitted with it
+        if cur.effects.contains(&Effect::SecondTimeConstant) {
+            for _ in 0..2 {
+                if let Some((c, _, _)) = cur_r.as_ref().and_then(|(g, _)| refine_tau2(&d, g, &cur, &hat)) {
+                    cur = c;
+                    cur_r = refit_onsets(&d, &trials, &cur, &hat);
+                }
+            }
+        }
+        match (refit_onsets(&d, &base_fit, &base_cfg, &hat0), cur_r) {
             (Some((gb, xb2)), Some((gc, xc2))) => {
                 for (k, tr) in final_base.iter_mut().enumerate() {
                     tr.segs = gb[k].segs.clone();
