@@ -103,7 +103,7 @@ fn run_with_floor(s: &SensorParams, s0: &SensorParams, p: &ProtocolParams, seed:
     let ef: f64 = d.predictions.iter().zip(&sims).map(|(pr, (_, truth))| sq_err(&pr.baseline, &truth.clean_v)).sum();
     let eb = o.floor;
     o.floor = (ef / o.floor.max(1e-300)).sqrt();
-    if std::env::var("TF_DEBUG").is_ok() { let n: f64 = sims.iter().map(|x| x.1.clean_v.len() as f64).sum(); eprintln!("{seed}: floor {:.4} mV baseline {:.4} mV improved {:.4} mV", 1e3 * (ef / n).sqrt(), 1e3 * (eb / n).sqrt(), 1e3 * o.ratio * (eb / n).sqrt()); }
+    if std::env::var("TIPFORGE_DISCOVERY_VERBOSE").is_ok() { let n: f64 = sims.iter().map(|x| x.1.clean_v.len() as f64).sum(); eprintln!("{seed}: floor {:.4} mV baseline {:.4} mV improved {:.4} mV", 1e3 * (ef / n).sqrt(), 1e3 * (eb / n).sqrt(), 1e3 * o.ratio * (eb / n).sqrt()); }
     o
 }
 
@@ -132,7 +132,8 @@ fn main() {
     let n: u64 = std::env::var("TIPFORGE_DISCOVERY_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(8);
     let top = s0.v_eq((1000.0 + 20.0) / 1000.0 * 9.80665);
     // TIPFORGE_DISCOVERY_ONLY=saturation,creep: only those effects' cells (quick looks while tuning);
-    // TIPFORGE_DISCOVERY_CELLS: stop after the single-effect cells; TIPFORGE_DISCOVERY_SEED: first seed (reports use ≥ 50 000; see the header for the tuning seeds)
+    // TIPFORGE_DISCOVERY_CELLS: stop after the single-effect cells; TIPFORGE_DISCOVERY_VERBOSE: each
+    // case's floor, baseline and improved error to the truth (mV) on stderr; TIPFORGE_DISCOVERY_SEED: first seed (reports use ≥ 50 000; see the header for the tuning seeds)
     let only: Vec<String> = std::env::var("TIPFORGE_DISCOVERY_ONLY").map(|v| v.split(',').map(|x| x.trim().to_string()).collect()).unwrap_or_default();
     let effects: Vec<E> = [E::Creep, E::Hyst, E::Second, E::Drift, E::Sat, E::Spikes].into_iter().filter(|e| only.is_empty() || only.iter().any(|o| o == e.name())).collect();
     let seed0: u64 = std::env::var("TIPFORGE_DISCOVERY_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(50_000);
