@@ -142,7 +142,9 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|");
     let mut seed: u64 = seed0;
     let mut confusion: Vec<(E, String)> = Vec::new();
-    for &e in &effects {
+    // TIPFORGE_DISCOVERY_PAIRS: the pairs only, each on its seeds of the full run
+    let pairs_only = std::env::var("TIPFORGE_DISCOVERY_PAIRS").is_ok();
+    for &e in effects.iter().filter(|_| !pairs_only) {
         for k in [3.0, 1.0, 0.3] {
             let m = magnitude_for(&s0, &p0, e, k * sigma, top);
             let mut s = s0.clone();
@@ -175,6 +177,9 @@ fn main() {
     let mut ratios = Vec::new();
     let nn = 3 * n;
     for _ in 0..nn {
+        if pairs_only {
+            break;
+        }
         let o = run(&s0, &p0, seed);
         seed += 10;
         if !o.found.is_empty() {
@@ -182,14 +187,19 @@ fn main() {
         }
         ratios.push(o.ratio);
     }
-    ratios.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    println!("\nnull cases: {false_any} of {nn} with any finding ({:.1} %); median improved/baseline RMSE to truth {:.3}", 100.0 * false_any as f64 / nn as f64, ratios[ratios.len() / 2]);
+    if !pairs_only {
+        println!("\nnull cases: {false_any} of {nn} with any finding ({:.1} %); median improved/baseline RMSE to truth {:.3}", 100.0 * false_any as f64 / nn as f64, median(ratios));
+    }
     // pairs at 3σ each
     println!("\n| pair (3σ each) | both found | findings (first case) |\n|---|---|---|");
     let all = [E::Creep, E::Hyst, E::Second, E::Drift, E::Sat, E::Spikes];
-    let pairs: Vec<(E, E)> = (0..all.len()).flat_map(|i| (i + 1..all.len()).map(move |j| (all[i], all[j]))).filter(|(a, b)| only.is_empty() || only.iter().any(|o| o == a.name() || o == b.name())).collect();
+    let pairs: Vec<(usize, (E, E))> = (0..all.len()).flat_map(|i| (i + 1..all.len()).map(move |j| (all[i], all[j]))).enumerate().filter(|(_, (a, b))| only.is_empty() || only.iter().any(|o| o == a.name() || o == b.name())).collect();
     let mut pair_conf: Vec<String> = Vec::new();
-    for (a, b) in pairs {
+    let pairs_seed0 = seed0 + 10 * (all.len() as u64 * 3 * n + 3 * n);
+    for (k, (a, b)) in pairs {
+        if pairs_only {
+            seed = pairs_seed0 + 10 * n * k as u64;
+        }
         let mut s = s0.clone();
         a.set(&mut s, magnitude_for(&s0, &p0, a, 3.0 * sigma, top), top);
         b.set(&mut s, magnitude_for(&s0, &p0, b, 3.0 * sigma, top), top);
@@ -209,6 +219,10 @@ fn main() {
             }
         }
         println!("| {} + {} | {:.2} | {first} |", a.name(), b.name(), both as f64 / n as f64);
+    }
+    if pairs_only {
+        println!("\npairs: extra findings beyond the two effects: {} {:?}", pair_conf.len(), pair_conf);
+        return;
     }
     // variations at 1σ: hold time, 40 g steps, noise, sample rate, logging offset
     println!("\n| variation (each effect at 1σ) | recall per effect | null false findings |\n|---|---|---|");

@@ -200,11 +200,23 @@ impl Design {
                 }
                 let dv = hat.level_of(sg.load) - hat.level_of(sg.prev);
                 // −∂/∂ln τ of dv·rise: the coefficient is −Δ ln τ
-                let hs = if self.exact_shape { h } else { 0.0 };
-                out[col + sg.key] -= dv * rise_dln_tau(t, sg.t0, sg.tau, hs);
-                if let Some(q) = self.refit_onset.iter().position(|&k| k == (i, s)) {
-                    // ∂/∂t0 of dv·rise: the coefficient is the onset's shift (s)
-                    out[col + self.n_keys + q] = dv * rise_dt0(t, sg.t0, sg.tau, hs);
+                if self.exact_shape {
+                    // −∂/∂ln τ and ∂/∂t0 of dv·rise: the coefficients are −Δ ln τ and the onset's
+                    // shift (s)
+                    out[col + sg.key] -= dv * rise_dln_tau(t, sg.t0, sg.tau, h);
+                    if let Some(q) = self.refit_onset.iter().position(|&k| k == (i, s)) {
+                        out[col + self.n_keys + q] = dv * rise_dt0(t, sg.t0, sg.tau, h);
+                    }
+                } else {
+                    // the point value's derivatives, continued over the filtered span before the
+                    // onset (as the selection rules were set)
+                    let x = (t - sg.t0) / sg.tau;
+                    if x <= SETTLED {
+                        out[col + sg.key] += dv * x * (-x).exp();
+                        if let Some(q) = self.refit_onset.iter().position(|&k| k == (i, s)) {
+                            out[col + self.n_keys + q] = -dv * (-x).exp() / sg.tau;
+                        }
+                    }
                 }
             }
             col += self.n_keys + self.refit_onset.len();
