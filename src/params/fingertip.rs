@@ -3,7 +3,7 @@
 //! Frame (design frame): x runs from the mount face (x = 0) to the tip (x = length), y is lateral,
 //! z points to the nail (dorsal) side; the pad is at negative z.
 
-use super::{Collector, Schema, SourceFile};
+use super::{fields_of, Collector, Schema, SourceFile};
 use crate::error::Result;
 use serde::Deserialize;
 
@@ -66,27 +66,12 @@ pub struct RawPrint {
     pub chordal_tolerance_mm: Option<f64>,
 }
 
-pub static BODY_SCHEMA: Schema = Schema {
-    fields: &["length_mm", "width_mm", "thickness_mm", "pad_longitudinal_radius_mm", "pad_transverse_radius_mm", "tip_radius_mm"],
-    tables: &[],
-};
-pub static SENSOR_SCHEMA: Schema = Schema {
-    fields: &[
-        "position_from_tip_mm", "lateral_offset_mm", "seat_diameter_mm", "seat_depth_mm", "flat_diameter_mm",
-        "dome_diameter_mm", "dome_height_mm", "channel_width_mm", "channel_depth_mm", "channel_offset_mm",
-    ],
-    tables: &[],
-};
-pub static MOUNT_SCHEMA: Schema = Schema {
-    fields: &[
-        "socket_width_mm", "socket_height_mm", "socket_depth_mm", "socket_center_z_mm", "hole_diameter_mm", "holes",
-        "head", "head_diameter_mm", "head_depth_mm",
-    ],
-    tables: &[],
-};
-pub static PRINT_SCHEMA: Schema = Schema { fields: &["density_g_cm3", "min_wall_mm", "chordal_tolerance_mm"], tables: &[] };
+pub static BODY_SCHEMA: Schema = Schema { fields: fields_of::<RawBody>, tables: &[] };
+pub static SENSOR_SCHEMA: Schema = Schema { fields: fields_of::<RawSensor>, tables: &[] };
+pub static MOUNT_SCHEMA: Schema = Schema { fields: fields_of::<RawMount>, tables: &[] };
+pub static PRINT_SCHEMA: Schema = Schema { fields: fields_of::<RawPrint>, tables: &[] };
 pub static SCHEMA: Schema = Schema {
-    fields: &["kind", "name"],
+    fields: fields_of::<RawFingertip>,
     tables: &[("body", false, &BODY_SCHEMA), ("sensor", true, &SENSOR_SCHEMA), ("mount", false, &MOUNT_SCHEMA), ("print", false, &PRINT_SCHEMA)],
 };
 

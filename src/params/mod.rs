@@ -2,7 +2,8 @@
 //! that turns them into validated parameters while collecting every problem with its TOML path.
 //!
 //! Flow: text → `toml::Value` (syntax errors with file:line:column) → unknown-key scan over the
-//! whole file (all unknown keys at once, with "did you mean") → serde raw structs, table by table
+//! whole file (all unknown keys at once, with "did you mean"; a table's keys are its serde struct's
+//! fields, read by `fields_of`, so no key is listed twice) → serde raw structs, table by table
 //! (type errors per table) → `TryFrom`-style validation that collects every semantic problem.
 
 pub mod fingertip;
@@ -11,7 +12,7 @@ pub mod rig;
 pub mod sensor;
 mod raw;
 
-pub use raw::{part_name, Collector, Schema, SourceFile};
+pub use raw::{fields_of, part_name, Collector, Schema, SourceFile};
 
 use crate::error::{Error, Problem, Problems, Result};
 use std::path::Path;

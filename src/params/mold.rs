@@ -6,7 +6,7 @@
 //! downward, the core (above it, carrying the fingertip-shaped plug) upward.
 
 use super::fingertip::FingertipParams;
-use super::{Collector, Schema, SourceFile};
+use super::{fields_of, Collector, Schema, SourceFile};
 use crate::error::{Error, Result};
 use serde::Deserialize;
 use std::path::Path;
@@ -52,20 +52,11 @@ pub struct RawFlat {
     pub margin_mm: Option<f64>,
 }
 
-static COVER_SCHEMA: Schema = Schema {
-    fields: &["thickness_mm", "from_tip_mm", "dome_clearance_mm", "shrinkage_percent", "mix_ratio", "waste_margin_percent", "density_g_cm3"],
-    tables: &[],
-};
-static MOLD_SCHEMA: Schema = Schema {
-    fields: &[
-        "wall_thickness_mm", "parting_below_midplane_mm", "demolding_tilt_deg", "draft_deg", "key_count", "key_diameter_mm", "key_height_mm", "key_clearance_mm", "sprue_diameter_mm",
-        "sprue_taper_deg", "sprue_xy_mm", "vent_count", "vent_diameter_mm", "material", "min_detail_mm", "min_wall_mm", "density_g_cm3", "chordal_tolerance_mm",
-    ],
-    tables: &[],
-};
-static FLAT_SCHEMA: Schema = Schema { fields: &["margin_mm"], tables: &[] };
+static COVER_SCHEMA: Schema = Schema { fields: fields_of::<RawCover>, tables: &[] };
+static MOLD_SCHEMA: Schema = Schema { fields: fields_of::<RawMold>, tables: &[] };
+static FLAT_SCHEMA: Schema = Schema { fields: fields_of::<RawFlat>, tables: &[] };
 pub static SCHEMA: Schema = Schema {
-    fields: &["kind", "name", "fingertip", "style"],
+    fields: || &["kind", "name", "fingertip", "style"],
     tables: &[("cover", false, &COVER_SCHEMA), ("mold", false, &MOLD_SCHEMA), ("flat", false, &FLAT_SCHEMA)],
 };
 

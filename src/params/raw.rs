@@ -13,9 +13,47 @@ pub struct SourceFile {
 }
 
 /// The keys a table accepts, and its sub-tables (arrays of tables are marked `array`).
+///
+/// `fields` is a function so that a table read into a serde struct takes its keys from the struct
+/// itself (`fields_of::<RawCover>`): the struct is the one list of keys. Tables read as plain maps
+/// list theirs (`|| &["sigma_v"]`).
 pub struct Schema {
-    pub fields: &'static [&'static str],
+    pub fields: fn() -> &'static [&'static str],
     pub tables: &'static [(&'static str, bool, &'static Schema)],
+}
+
+/// The field names serde derives for struct `T` (what its `Deserialize` passes to
+/// `deserialize_struct`, renames included); empty for a type that is not a struct.
+pub fn fields_of<T: DeserializeOwned>() -> &'static [&'static str] {
+    let mut captured = None;
+    let _ = T::deserialize(FieldProbe(&mut captured));
+    captured.unwrap_or(&[])
+}
+
+/// A deserializer that records the field list of the struct asked of it and then stops.
+struct FieldProbe<'a>(&'a mut Option<&'static [&'static str]>);
+
+impl<'de> serde::Deserializer<'de> for FieldProbe<'_> {
+    type Error = serde::de::value::Error;
+
+    fn deserialize_any<V: serde::de::Visitor<'de>>(self, _visitor: V) -> std::result::Result<V::Value, Self::Error> {
+        Err(serde::de::Error::custom("not a struct"))
+    }
+
+    fn deserialize_struct<V: serde::de::Visitor<'de>>(
+        self,
+        _name: &'static str,
+        fields: &'static [&'static str],
+        _visitor: V,
+    ) -> std::result::Result<V::Value, Self::Error> {
+        *self.0 = Some(fields);
+        Err(serde::de::Error::custom("fields recorded"))
+    }
+
+    serde::forward_to_deserialize_any! {
+        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes byte_buf option unit
+        unit_struct newtype_struct seq tuple tuple_struct map enum identifier ignored_any
+    }
 }
 
 impl SourceFile {
@@ -68,8 +106,13 @@ impl SourceFile {
                         if *array { format!("`{k}` must be an array of tables: write `[[{}]]` sections", join(k)) } else { format!("`{k}` must be a table: write a `[{}]` section", join(k)) },
                     )),
                 }
-            } else if !schema.fields.contains(&k.as_str()) {
-                let known: Vec<&str> = schema.fields.iter().copied().chain(schema.tables.iter().map(|(n, _, _)| *n)).collect();
+            } else if !(schema.fields)().contains(&k.as_str()) {
+                let mut known: Vec<&str> = (schema.fields)().to_vec();
+                for (n, _, _) in schema.tables {
+                    if !known.contains(n) {
+                        known.push(n);
+                    }
+                }
                 let hint = match nearest(k, &known) {
                     Some(s) => format!("unknown key; did you mean `{s}`?"),
                     None => format!("unknown key; allowed here: {}", known.join(", ")),
@@ -271,6 +314,37 @@ impl<'a> Collector<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[derive(serde::Deserialize)]
+    #[serde(deny_unknown_fields)]
+    #[allow(dead_code)]
+    struct Probed {
+        width_mm: Option<f64>,
+        #[serde(rename = "depth_mm")]
+        depth: Option<f64>,
+        inner: Option<Inner>,
+    }
+    #[derive(serde::Deserialize)]
+    #[allow(dead_code)]
+    struct Inner {
+        a_mm: f64,
+    }
+    static INNER: Schema = Schema { fields: fields_of::<Inner>, tables: &[] };
+    static PROBED: Schema = Schema { fields: fields_of::<Probed>, tables: &[("inner", false, &INNER)] };
+
+    #[test]
+    fn schema_keys_come_from_the_serde_struct() {
+        assert_eq!(fields_of::<Probed>(), &["width_mm", "depth_mm", "inner"]);
+        assert_eq!(fields_of::<Inner>(), &["a_mm"]);
+        assert!(fields_of::<f64>().is_empty() && fields_of::<Vec<Inner>>().is_empty());
+        let src = SourceFile::parse("t.toml", "width_mm = 1\ndepth = 2\n[inner]\na_mm = 1\nb_mm = 2\n".into()).unwrap();
+        let found: Vec<(String, String)> = src.unknown_keys(&PROBED).into_iter().map(|p| (p.path, p.message)).collect();
+        assert_eq!(found.len(), 2, "{found:?}");
+        assert_eq!(found[0].0, "depth");
+        assert!(found[0].1.contains("did you mean `depth_mm`"), "{found:?}");
+        assert_eq!(found[1].0, "inner.b_mm");
+        assert!(found[1].1.contains("a_mm"), "{found:?}");
+    }
 
     #[test]
     fn locate_finds_keys_in_array_tables() {

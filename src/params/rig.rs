@@ -5,7 +5,7 @@
 //! Frame: z up, the sensor's axis on z = 0 axis, base bottom at z = 0.
 
 use super::fingertip::{print_params, Print, RawPrint};
-use super::{Collector, Schema, SourceFile};
+use super::{fields_of, Collector, Schema, SourceFile};
 use crate::error::Result;
 use serde::Deserialize;
 
@@ -58,18 +58,12 @@ pub struct RawRigPrint {
     pub chordal_tolerance_mm: Option<f64>,
 }
 
-static SENSOR_SCHEMA: Schema = Schema { fields: &["disc_diameter_mm", "board_thickness_mm", "dome_diameter_mm", "dome_height_mm", "tail_width_mm", "tail_length_mm"], tables: &[] };
-static BASE_SCHEMA: Schema = Schema { fields: &["width_mm", "height_mm", "seat_clearance_mm", "tail_slot_clearance_mm", "sleeve_wall_mm"], tables: &[] };
-static PLUNGER_SCHEMA: Schema = Schema {
-    fields: &[
-        "face_diameter_mm", "frustum_top_diameter_mm", "frustum_height_mm", "stem_diameter_mm", "stem_length_mm", "plate_diameter_mm",
-        "plate_thickness_mm", "weight_diameter_mm", "clearance_mm", "stop_gap_mm", "max_tilt_deg", "scale_pitch_mm", "scale_line_width_mm", "scale_depth_mm",
-    ],
-    tables: &[],
-};
-static RIG_PRINT_SCHEMA: Schema = Schema { fields: &["density_g_cm3", "infill", "min_wall_mm", "chordal_tolerance_mm"], tables: &[] };
+static SENSOR_SCHEMA: Schema = Schema { fields: fields_of::<RawSensor>, tables: &[] };
+static BASE_SCHEMA: Schema = Schema { fields: fields_of::<RawBase>, tables: &[] };
+static PLUNGER_SCHEMA: Schema = Schema { fields: fields_of::<RawPlunger>, tables: &[] };
+static RIG_PRINT_SCHEMA: Schema = Schema { fields: fields_of::<RawRigPrint>, tables: &[] };
 pub static SCHEMA: Schema = Schema {
-    fields: &["kind", "name"],
+    fields: || &["kind", "name"],
     tables: &[("sensor", false, &SENSOR_SCHEMA), ("base", false, &BASE_SCHEMA), ("plunger", false, &PLUNGER_SCHEMA), ("print", false, &RIG_PRINT_SCHEMA)],
 };
 

@@ -81,27 +81,27 @@ struct RawSensorFile {
     effects: Option<BTreeMap<String, Table>>,
 }
 
-static CIRCUIT: Schema = Schema { fields: &["vcc_v", "r_m_ohm", "divider", "adc_bits", "vref_v", "sample_rate_hz"], tables: &[] };
-static CONDUCTANCE: Schema = Schema { fields: &["g_ref_s", "exponent"], tables: &[] };
-static RELAX: Schema = Schema { fields: &["tau0_s", "tau_per_n_s"], tables: &[] };
-static NOISE: Schema = Schema { fields: &["sigma_v"], tables: &[] };
-static RIG: Schema = Schema { fields: &["preload_g"], tables: &[] };
-static COVER: Schema = Schema { fields: &["dome_stiffness_n_per_mm", "contact_diameter_mm", "relax_fraction", "tau_s"], tables: &[] };
-static CREEP: Schema = Schema { fields: &["per_decade", "time_s"], tables: &[] };
-static HYST: Schema = Schema { fields: &["fraction"], tables: &[] };
-static SECOND: Schema = Schema { fields: &["fraction", "tau_s"], tables: &[] };
-static DRIFT: Schema = Schema { fields: &["rate_v_per_s", "wander_v", "period_s"], tables: &[] };
-static SAT: Schema = Schema { fields: &["level_v"], tables: &[] };
-static SPIKES: Schema = Schema { fields: &["amplitude_v", "duration_s"], tables: &[] };
+static CIRCUIT: Schema = Schema { fields: || &["vcc_v", "r_m_ohm", "divider", "adc_bits", "vref_v", "sample_rate_hz"], tables: &[] };
+static CONDUCTANCE: Schema = Schema { fields: || &["g_ref_s", "exponent"], tables: &[] };
+static RELAX: Schema = Schema { fields: || &["tau0_s", "tau_per_n_s"], tables: &[] };
+static NOISE: Schema = Schema { fields: || &["sigma_v"], tables: &[] };
+static RIG: Schema = Schema { fields: || &["preload_g"], tables: &[] };
+static COVER: Schema = Schema { fields: || &["dome_stiffness_n_per_mm", "contact_diameter_mm", "relax_fraction", "tau_s"], tables: &[] };
+static CREEP: Schema = Schema { fields: || &["per_decade", "time_s"], tables: &[] };
+static HYST: Schema = Schema { fields: || &["fraction"], tables: &[] };
+static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
+static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s"], tables: &[] };
+static SAT: Schema = Schema { fields: || &["level_v"], tables: &[] };
+static SPIKES: Schema = Schema { fields: || &["amplitude_v", "duration_s"], tables: &[] };
 static EFFECTS: Schema = Schema {
-    fields: &[],
+    fields: || &[],
     tables: &[("creep", false, &CREEP), ("hysteresis", false, &HYST), ("second_time_constant", false, &SECOND), ("baseline_drift", false, &DRIFT), ("saturation", false, &SAT), ("handling_spikes", false, &SPIKES)],
 };
 pub static SENSOR_SCHEMA: Schema = Schema {
-    fields: &["kind"],
+    fields: || &["kind"],
     tables: &[("circuit", false, &CIRCUIT), ("conductance", false, &CONDUCTANCE), ("relaxation", false, &RELAX), ("noise", false, &NOISE), ("rig", false, &RIG), ("cover", false, &COVER), ("effects", false, &EFFECTS)],
 };
-pub static PROTOCOL_SCHEMA: Schema = Schema { fields: &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s"], tables: &[] };
+pub static PROTOCOL_SCHEMA: Schema = Schema { fields: || &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s"], tables: &[] };
 
 fn num(c: &mut Collector, t: &Option<Table>, table: &str, key: &str, default: f64, lo: f64, hi: f64) -> Option<f64> {
     let path = format!("{table}.{key}");
