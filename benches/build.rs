@@ -19,7 +19,9 @@ fn main() {
     if let Ok(only) = std::env::var("TIPFORGE_BENCH_ONLY") {
         return single(&only, runs);
     }
-    let groups: Vec<(&str, Vec<String>)> = vec![("both fingertips", vec!["fingertip-1s".into(), "fingertip-2s".into()]), ("calibration rig", vec!["rig".into()]),
+    let groups: Vec<(&str, Vec<String>)> = vec![
+        ("both fingertips", vec!["fingertip-1s".into(), "fingertip-2s".into()]),
+        ("calibration rig", vec!["rig".into()]),
         ("both conforming molds", vec!["mold-1s".into(), "mold-2s".into()]),
         ("flat mold", vec!["mold-flat".into()]),
     ];

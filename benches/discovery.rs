@@ -103,7 +103,10 @@ fn run_with_floor(s: &SensorParams, s0: &SensorParams, p: &ProtocolParams, seed:
     let ef: f64 = d.predictions.iter().zip(&sims).map(|(pr, (_, truth))| sq_err(&pr.baseline, &truth.clean_v)).sum();
     let eb = o.floor;
     o.floor = (ef / o.floor.max(1e-300)).sqrt();
-    if std::env::var("TIPFORGE_DISCOVERY_VERBOSE").is_ok() { let n: f64 = sims.iter().map(|x| x.1.clean_v.len() as f64).sum(); eprintln!("{seed}: floor {:.4} mV baseline {:.4} mV improved {:.4} mV", 1e3 * (ef / n).sqrt(), 1e3 * (eb / n).sqrt(), 1e3 * o.ratio * (eb / n).sqrt()); }
+    if std::env::var("TIPFORGE_DISCOVERY_VERBOSE").is_ok() {
+        let n: f64 = sims.iter().map(|x| x.1.clean_v.len() as f64).sum();
+        eprintln!("{seed}: floor {:.4} mV baseline {:.4} mV improved {:.4} mV", 1e3 * (ef / n).sqrt(), 1e3 * (eb / n).sqrt(), 1e3 * o.ratio * (eb / n).sqrt());
+    }
     o
 }
 
@@ -188,12 +191,20 @@ fn main() {
         ratios.push(o.ratio);
     }
     if !pairs_only {
-        println!("\nnull cases: {false_any} of {nn} with any finding ({:.1} %); median improved/baseline RMSE to truth {:.3}", 100.0 * false_any as f64 / nn as f64, median(ratios));
+        println!(
+            "\nnull cases: {false_any} of {nn} with any finding ({:.1} %); median improved/baseline RMSE to truth {:.3}",
+            100.0 * false_any as f64 / nn as f64,
+            median(ratios)
+        );
     }
     // pairs at 3σ each
     println!("\n| pair (3σ each) | both found | findings (first case) |\n|---|---|---|");
     let all = [E::Creep, E::Hyst, E::Second, E::Drift, E::Sat, E::Spikes];
-    let pairs: Vec<(usize, (E, E))> = (0..all.len()).flat_map(|i| (i + 1..all.len()).map(move |j| (all[i], all[j]))).enumerate().filter(|(_, (a, b))| only.is_empty() || only.iter().any(|o| o == a.name() || o == b.name())).collect();
+    let pairs: Vec<(usize, (E, E))> = (0..all.len())
+        .flat_map(|i| (i + 1..all.len()).map(move |j| (all[i], all[j])))
+        .enumerate()
+        .filter(|(_, (a, b))| only.is_empty() || only.iter().any(|o| o == a.name() || o == b.name()))
+        .collect();
     let mut pair_conf: Vec<String> = Vec::new();
     let pairs_seed0 = seed0 + 10 * (all.len() as u64 * 3 * n + 3 * n);
     for (k, (a, b)) in pairs {

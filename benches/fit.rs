@@ -71,6 +71,12 @@ fn main() {
     println!("10 trials × {} steps, {} samples after the 10-sample mean filter", prep.groups.len(), samples);
     println!("lsq (variable projection, pooled): {:.3} ms for all steps (median of 200 runs per step)", lsq_total * 1e3);
     for ((g, t), f) in grids.iter().zip(&paper_total).zip(&fast_total) {
-        println!("paper grid search {g}×{g} as described (Eq. 4 at every point): {:.1} ms ({:.0}× the lsq time); with sufficient statistics: {:.1} ms ({:.0}×)", t * 1e3, t / lsq_total, f * 1e3, f / lsq_total);
+        println!(
+            "paper grid search {g}×{g} as described (Eq. 4 at every point): {:.1} ms ({:.0}× the lsq time); with sufficient statistics: {:.1} ms ({:.0}×)",
+            t * 1e3,
+            t / lsq_total,
+            f * 1e3,
+            f / lsq_total
+        );
     }
 }

@@ -190,7 +190,13 @@ mod tests {
 
     #[test]
     fn chart_renders_a_png_with_data_drawn() {
-        let ch = Chart { title: "t".into(), x_label: "time s".into(), y_label: "V".into(), series: vec![Series::line("a", vec![0.0, 1.0, 2.0], vec![0.0, 1.0, 0.5], PALETTE[1])], shade: vec![(0.5, 0.8)] };
+        let ch = Chart {
+            title: "t".into(),
+            x_label: "time s".into(),
+            y_label: "V".into(),
+            series: vec![Series::line("a", vec![0.0, 1.0, 2.0], vec![0.0, 1.0, 0.5], PALETTE[1])],
+            shade: vec![(0.5, 0.8)],
+        };
         let png = render(&[ch], 1, 400, 300);
         let dec = png::Decoder::new(std::io::Cursor::new(png));
         let mut rd = dec.read_info().unwrap();

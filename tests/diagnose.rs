@@ -145,7 +145,6 @@ fn simulator_baseline_finds_what_the_simulator_leaves_out_and_nothing_when_it_is
     assert!(!d.findings.is_empty() || d.unexplained.flag);
 }
 
-
 #[test]
 fn actuator_loading_excludes_no_spikes_by_flag_or_metadata() {
     let dir = std::env::temp_dir().join(format!("tipforge-act-{}", std::process::id()));
@@ -181,8 +180,6 @@ fn actuator_loading_excludes_no_spikes_by_flag_or_metadata() {
         .collect();
     assert!(!found(&[], &tagged).contains(&"handling_spikes".to_string()));
 }
-
-
 
 /// The final refit takes the improved model to the floor: on a second relaxation (its part-1 fits
 /// lengthen τ and its τ2 is chosen on a grid), the improved model's error to the truth is within

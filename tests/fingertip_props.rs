@@ -68,13 +68,15 @@ fn toml_of(g: &Gen) -> String {
     let r_trans = (g.width / 2.0).powi(2) / pad_depth;
     let mut t = format!(
         "kind = \"fingertip\"\n[body]\nlength_mm = {}\nwidth_mm = {}\nthickness_mm = {}\npad_longitudinal_radius_mm = {}\npad_transverse_radius_mm = {}\ntip_radius_mm = {}\n",
-        g.length, g.width, g.thickness, g.r_long, r_trans, g.tip_frac * pad_depth
+        g.length,
+        g.width,
+        g.thickness,
+        g.r_long,
+        r_trans,
+        g.tip_frac * pad_depth
     );
-    let sensors: Vec<(f64, f64, f64)> = if g.two {
-        vec![(g.pos[0], 0.0, g.width * 0.35), (g.pos[1], 0.0, -g.width * 0.35)]
-    } else {
-        vec![(g.pos[0] + 2.0, g.lat, g.lat + g.ch_off)]
-    };
+    let sensors: Vec<(f64, f64, f64)> =
+        if g.two { vec![(g.pos[0], 0.0, g.width * 0.35), (g.pos[1], 0.0, -g.width * 0.35)] } else { vec![(g.pos[0] + 2.0, g.lat, g.lat + g.ch_off)] };
     for (pos, lat, off) in sensors {
         t += &format!(
             "[[sensor]]\nposition_from_tip_mm = {pos}\nlateral_offset_mm = {lat}\nseat_diameter_mm = {}\nseat_depth_mm = {}\nflat_diameter_mm = {}\ndome_diameter_mm = {}\ndome_height_mm = 1.0\nchannel_width_mm = {}\nchannel_depth_mm = {}\nchannel_offset_mm = {off}\n",

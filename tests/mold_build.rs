@@ -166,7 +166,8 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
         assert!(!d.join("out").exists(), "nothing may be written");
     }
     // several problems at once
-    let t = base.replacen("thickness_mm = 1.5 ", "thickness_mm = 0.01 ", 1).replacen("vent_diameter_mm = 0.8", "vent_diameter_mm = 9", 1).replacen("key_count = 3", "key_count = 7", 1);
+    let t =
+        base.replacen("thickness_mm = 1.5 ", "thickness_mm = 0.01 ", 1).replacen("vent_diameter_mm = 0.8", "vent_diameter_mm = 9", 1).replacen("key_count = 3", "key_count = 7", 1);
     let (code, text) = run(&d, &t);
     assert_eq!(code, 2);
     for needle in ["cover.thickness_mm", "mold.vent_diameter_mm", "mold.key_count"] {
@@ -180,7 +181,10 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
     assert!(text.contains("breaks through") && text.contains("cover.thickness_mm"), "{text}");
     std::fs::write(d.join("params/fingertip-1s.toml"), tip).unwrap();
     // a tilted opening with a deeper parting plane builds and passes every check
-    let tilted = base.replacen("demolding_tilt_deg = 0.0", "demolding_tilt_deg = 5.0", 1).replacen("parting_below_midplane_mm = 1.0", "parting_below_midplane_mm = 2.2", 1).replacen("dome_clearance_mm = 0.3 ", "dome_clearance_mm = 0.6 ", 1);
+    let tilted = base
+        .replacen("demolding_tilt_deg = 0.0", "demolding_tilt_deg = 5.0", 1)
+        .replacen("parting_below_midplane_mm = 1.0", "parting_below_midplane_mm = 2.2", 1)
+        .replacen("dome_clearance_mm = 0.3 ", "dome_clearance_mm = 0.6 ", 1);
     let (code, text) = run(&d, &tilted);
     assert_eq!(code, 0, "{text}");
     let _ = std::fs::remove_dir_all(d.join("out"));
@@ -198,4 +202,3 @@ fn a_mold_without_its_fingertip_is_an_input_error() {
         other => panic!("{:?}", other.map(|_| ())),
     }
 }
-

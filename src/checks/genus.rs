@@ -5,7 +5,11 @@ use crate::part::Part;
 
 pub fn check(part: &Part) -> Option<Violation> {
     let g = part.solid.genus();
-    (g != part.expected_genus).then(|| Violation { part: part.name.clone(), rule: "genus must equal the number of through holes", measured: format!("genus {g}, expected {}", part.expected_genus) })
+    (g != part.expected_genus).then(|| Violation {
+        part: part.name.clone(),
+        rule: "genus must equal the number of through holes",
+        measured: format!("genus {g}, expected {}", part.expected_genus),
+    })
 }
 
 #[cfg(test)]

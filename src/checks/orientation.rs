@@ -8,7 +8,11 @@ pub fn check(part: &Part) -> Option<Violation> {
     let v = part.mesh.signed_volume();
     let k = part.solid.volume();
     if v <= 0.0 || (v - k).abs() > 1e-6 * k.abs().max(1.0) {
-        return Some(Violation { part: part.name.clone(), rule: "mesh must face outward (positive signed volume equal to the kernel volume)", measured: format!("signed volume {v:.3} mm³, kernel volume {k:.3} mm³") });
+        return Some(Violation {
+            part: part.name.clone(),
+            rule: "mesh must face outward (positive signed volume equal to the kernel volume)",
+            measured: format!("signed volume {v:.3} mm³, kernel volume {k:.3} mm³"),
+        });
     }
     None
 }

@@ -24,7 +24,10 @@ pub fn entry(part: &Part, source: &str, source_sha256: &str, files: &[String]) -
     m.insert("mass_g".into(), json!(round(part.mass_g(), 4)));
     m.insert("density_g_cm3".into(), json!(part.density_g_cm3));
     m.insert("infill".into(), json!(part.infill));
-    m.insert("bbox_mm".into(), json!({"min": lo.map(|v| round(v, 4)), "max": hi.map(|v| round(v, 4)), "size": [round(hi[0]-lo[0], 4), round(hi[1]-lo[1], 4), round(hi[2]-lo[2], 4)]}));
+    m.insert(
+        "bbox_mm".into(),
+        json!({"min": lo.map(|v| round(v, 4)), "max": hi.map(|v| round(v, 4)), "size": [round(hi[0]-lo[0], 4), round(hi[1]-lo[1], 4), round(hi[2]-lo[2], 4)]}),
+    );
     m.insert("triangles".into(), json!(part.mesh.triangles.len()));
     m.insert("genus".into(), json!(part.solid.genus()));
     m.insert("features".into(), part.features.clone());

@@ -187,7 +187,11 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
     let max_channel_depth = p.sensors.iter().map(|s| s.channel_depth_mm).fold(0.0, f64::max);
     let socket_rect = ([sb_lo[1], sb_lo[2]], [sb_hi[1], sb_hi[2]]);
     if m.socket_depth_mm + wall >= shape.length {
-        push("mount.socket_depth_mm".into(), m.socket_depth_mm.to_string(), format!("leaves less than the minimum wall {wall} mm before the tip; use less than {:.2}", shape.length - wall));
+        push(
+            "mount.socket_depth_mm".into(),
+            m.socket_depth_mm.to_string(),
+            format!("leaves less than the minimum wall {wall} mm before the tip; use less than {:.2}", shape.length - wall),
+        );
     } else {
         for (x, need) in [(0.0, wall + max_channel_depth), (m.socket_depth_mm, wall + max_channel_depth), (m.socket_depth_mm + wall, 0.0)] {
             let worst = shape.outline(x, 720).iter().map(|q| point_box_distance(*q, socket_rect.0, socket_rect.1)).fold(f64::INFINITY, f64::min);
@@ -209,7 +213,11 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
         let k = |f: &str| format!("sensor[{i}].{f}");
         match seat(&shape, s) {
             Err(why) => {
-                push(k("position_from_tip_mm"), format!("{} (lateral {})", s.position_from_tip_mm, s.lateral_offset_mm), format!("{why}; the seat must be a flat region of the pad"));
+                push(
+                    k("position_from_tip_mm"),
+                    format!("{} (lateral {})", s.position_from_tip_mm, s.lateral_offset_mm),
+                    format!("{why}; the seat must be a flat region of the pad"),
+                );
                 seats.push(None);
                 continue;
             }
@@ -233,7 +241,11 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
                     thinnest = thinnest.min(point_box3_distance(q, sb_lo, sb_hi));
                 }
                 if thinnest < wall {
-                    push(k("seat_depth_mm"), s.seat_depth_mm.to_string(), format!("the seat pocket leaves a wall of {thinnest:.2} mm (minimum {wall} mm) to the socket or the far side"));
+                    push(
+                        k("seat_depth_mm"),
+                        s.seat_depth_mm.to_string(),
+                        format!("the seat pocket leaves a wall of {thinnest:.2} mm (minimum {wall} mm) to the socket or the far side"),
+                    );
                 }
                 seats.push(Some(st));
             }
@@ -248,7 +260,14 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
                 let ey = q[1] + t[0] * side * s.channel_width_mm / 2.0;
                 let y_edge = ey.abs();
                 if y_edge > 0.85 * shape.half_width(x) {
-                    push(k("channel_offset_mm"), s.channel_offset_mm.to_string(), format!("the tail channel runs off the pad at x = {x:.1} mm (its edge at {y_edge:.2} mm, pad usable to {:.2} mm): move it toward the centre or narrow it", 0.85 * shape.half_width(x)));
+                    push(
+                        k("channel_offset_mm"),
+                        s.channel_offset_mm.to_string(),
+                        format!(
+                            "the tail channel runs off the pad at x = {x:.1} mm (its edge at {y_edge:.2} mm, pad usable to {:.2} mm): move it toward the centre or narrow it",
+                            0.85 * shape.half_width(x)
+                        ),
+                    );
                     bad = true;
                     break;
                 }
@@ -258,7 +277,11 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
                 if let Some(fp) = floor_point(&shape, s, ex, ey) {
                     let d = point_box3_distance(fp, sb_lo, sb_hi);
                     if d < wall - 1e-9 {
-                        push(k("channel_depth_mm"), s.channel_depth_mm.to_string(), format!("the tail channel leaves a wall of {d:.2} mm to the socket at x = {x:.1} mm (minimum {wall} mm)"));
+                        push(
+                            k("channel_depth_mm"),
+                            s.channel_depth_mm.to_string(),
+                            format!("the tail channel leaves a wall of {d:.2} mm to the socket at x = {x:.1} mm (minimum {wall} mm)"),
+                        );
                         bad = true;
                         break;
                     }
@@ -281,14 +304,22 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
                     let d = mesh::norm(sub(a.surface, b.surface));
                     let need = (si.flat_diameter_mm + sj.flat_diameter_mm) / 2.0;
                     if d < need {
-                        push(format!("sensor[{j}].position_from_tip_mm"), sj.position_from_tip_mm.to_string(), format!("its flat region overlaps sensor[{i}]'s: centres {d:.2} mm apart, at least {need:.2} mm needed"));
+                        push(
+                            format!("sensor[{j}].position_from_tip_mm"),
+                            sj.position_from_tip_mm.to_string(),
+                            format!("its flat region overlaps sensor[{i}]'s: centres {d:.2} mm apart, at least {need:.2} mm needed"),
+                        );
                     }
                 }
             }
             // channel of i vs pocket of j, plan view
             let (cx, cy, r) = (shape.length - sj.position_from_tip_mm, sj.lateral_offset_mm, sj.seat_diameter_mm / 2.0);
             if path_distance(&channel_path(&shape, si), [cx, cy]) < r + si.channel_width_mm / 2.0 {
-                push(format!("sensor[{i}].channel_offset_mm"), si.channel_offset_mm.to_string(), format!("the tail channel crosses sensor[{j}]'s seat; route it beside (|offset| ≥ {:.2} mm)", cy.abs() + r + si.channel_width_mm / 2.0));
+                push(
+                    format!("sensor[{i}].channel_offset_mm"),
+                    si.channel_offset_mm.to_string(),
+                    format!("the tail channel crosses sensor[{j}]'s seat; route it beside (|offset| ≥ {:.2} mm)", cy.abs() + r + si.channel_width_mm / 2.0),
+                );
             }
         }
     }
@@ -301,17 +332,35 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
         let val = format!("[{}, {}]", h[0], h[1]);
         let (x, z) = (h[0], h[1]);
         if x - r < 0.0 || x + r > m.socket_depth_mm || z - r < sb_lo[2] || z + r > sb_hi[2] {
-            push(path.clone(), val.clone(), format!("the cross hole ({} mm) must pass through the socket: x from {r} to {}, z from {} to {} mm", m.hole_diameter_mm, m.socket_depth_mm - r, sb_lo[2] + r, sb_hi[2] - r));
+            push(
+                path.clone(),
+                val.clone(),
+                format!(
+                    "the cross hole ({} mm) must pass through the socket: x from {r} to {}, z from {} to {} mm",
+                    m.hole_diameter_mm,
+                    m.socket_depth_mm - r,
+                    sb_lo[2] + r,
+                    sb_hi[2] - r
+                ),
+            );
             continue;
         }
         if x - rr < wall {
-            push(path.clone(), val.clone(), format!("the head recess ({} mm) leaves {:.2} mm to the mount face (minimum {wall} mm): move the hole to x ≥ {:.2}", m.head_diameter_mm, x - rr, rr + wall));
+            push(
+                path.clone(),
+                val.clone(),
+                format!("the head recess ({} mm) leaves {:.2} mm to the mount face (minimum {wall} mm): move the hole to x ≥ {:.2}", m.head_diameter_mm, x - rr, rr + wall),
+            );
         }
         match (head_floor(&shape, p, x, z), rim_slope_deg(&shape, x, z, rr)) {
             (Some(fy), Some(slope)) => {
                 let grip = fy - m.socket_width_mm / 2.0;
                 if grip < wall {
-                    push("mount.head_depth_mm".into(), m.head_depth_mm.to_string(), format!("hole {i}: the head recess leaves {grip:.2} mm of side wall beside the socket (minimum {wall} mm): make it shallower or the socket narrower"));
+                    push(
+                        "mount.head_depth_mm".into(),
+                        m.head_depth_mm.to_string(),
+                        format!("hole {i}: the head recess leaves {grip:.2} mm of side wall beside the socket (minimum {wall} mm): make it shallower or the socket narrower"),
+                    );
                 }
                 if m.head != Head::None && slope > MAX_RECESS_SLOPE_DEG {
                     push(path.clone(), val.clone(), format!("the head recess breaks out where the flank slopes {slope:.0}° (at most {MAX_RECESS_SLOPE_DEG}°), leaving a sharp, thin lip: move the hole toward the mid-plane (z = 0)"));

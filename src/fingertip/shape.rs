@@ -35,18 +35,7 @@ impl Shape {
         let d = (c2.0 - c1.0, c2.1 - c1.1);
         let dn = (d.0 * d.0 + d.1 * d.1).sqrt();
         let tp = (c1.0 + d.0 / dn * rl, c1.1 + d.1 / dn * rl);
-        Shape {
-            length: l,
-            pad_depth,
-            dorsal_height: b.thickness_mm - pad_depth,
-            lateral: b.width_mm / 2.0 / pad_depth,
-            r_long: rl,
-            r_tip: rt,
-            x1,
-            c1,
-            c2,
-            tp,
-        }
+        Shape { length: l, pad_depth, dorsal_height: b.thickness_mm - pad_depth, lateral: b.width_mm / 2.0 / pad_depth, r_long: rl, r_tip: rt, x1, c1, c2, tp }
     }
 
     /// Profile radius at x (0 outside [0, length]).

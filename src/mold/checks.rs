@@ -90,7 +90,11 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
         let into = a.cavity.contains(bottom, a.z_top + 2.0);
         openings_ok.push(clear && into);
         if !(clear && into) {
-            out.push(v(name, "the sprue and vents must open straight into the cavity", format!("{what} at ({:.2}, {:.2}): clear {clear}, reaches the cavity {into}", xy[0], xy[1])));
+            out.push(v(
+                name,
+                "the sprue and vents must open straight into the cavity",
+                format!("{what} at ({:.2}, {:.2}): clear {clear}, reaches the cavity {into}", xy[0], xy[1]),
+            ));
         }
     }
 
@@ -137,7 +141,11 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     let cavity_vol = a.cavity.volume();
     let open_ok = open.len() == 1 && open[0].intersection(&top_band).volume() > 1e-4;
     if !open_ok {
-        out.push(v(name, "the cavity must reach the outside through the sprue and vents", format!("{} air regions inside the mold with the openings open (expected 1 reaching the top face)", open.len())));
+        out.push(v(
+            name,
+            "the cavity must reach the outside through the sprue and vents",
+            format!("{} air regions inside the mold with the openings open (expected 1 reaching the top face)", open.len()),
+        ));
     }
     let enclosed = if sealed.len() == 1 { sealed[0] } else { f64::NAN };
     if sealed.len() != 1 || reaching_out > 1e-4 || ((enclosed - cavity_vol) / cavity_vol).abs() > 1e-3 {
@@ -174,7 +182,11 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
         let hump = hump_mm(&l.shape, p.cover.thickness_mm, &a.cover, d.base, d.normal, d.r_base);
         humps.push(hump);
         if !(hump <= MAX_HUMP_MM) {
-            out.push(v(name, "the cover's outer surface must not hump over a dome", format!("sensor[{i}]: outer surface deviates {hump:.3} mm from the undisturbed offset (limit {MAX_HUMP_MM})")));
+            out.push(v(
+                name,
+                "the cover's outer surface must not hump over a dome",
+                format!("sensor[{i}]: outer surface deviates {hump:.3} mm from the undisturbed offset (limit {MAX_HUMP_MM})"),
+            ));
         }
     }
 
@@ -182,7 +194,11 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     // that leaves in its direction (faces looking up to the core, looking down to the shell)
     let (min_slope, wrong, checked) = draft_check(a, m.draft_deg);
     if min_slope + 1e-3 < m.draft_deg {
-        out.push(v(name, "cavity walls must have the draft angle against the demolding direction", format!("steepest wall {min_slope:.3}° from the demolding direction, draft {}°", m.draft_deg)));
+        out.push(v(
+            name,
+            "cavity walls must have the draft angle against the demolding direction",
+            format!("steepest wall {min_slope:.3}° from the demolding direction, draft {}°", m.draft_deg),
+        ));
     }
     if wrong > 0 {
         out.push(v(name, "no undercut: each cavity face must belong to the piece that leaves in its direction", format!("{wrong} of {checked} faces face the wrong piece")));
@@ -314,7 +330,9 @@ fn draft_check(a: &Assembled, _draft: f64) -> (f64, usize, usize) {
         let (on_core, on_shell) = (on(&a.core), on(&a.shell));
         if !on_core && !on_shell {
             // where the sprue or a vent opens onto the cavity, the face looks into the opening's air
-            let in_opening = std::iter::once(a.sprue).chain(a.vents.iter().copied()).any(|(xy, r)| ((c[0] - xy[0]).powi(2) + (c[1] - xy[1]).powi(2)).sqrt() < r + 0.05 + (a.z_top - a.z_parting));
+            let in_opening = std::iter::once(a.sprue)
+                .chain(a.vents.iter().copied())
+                .any(|(xy, r)| ((c[0] - xy[0]).powi(2) + (c[1] - xy[1]).powi(2)).sqrt() < r + 0.05 + (a.z_top - a.z_parting));
             if !in_opening {
                 wrong += 1;
             }

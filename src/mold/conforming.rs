@@ -5,7 +5,7 @@
 use super::{checks, layout, material, notes, openings, Layout, MoldBuild};
 use crate::error::{Error, Result};
 use crate::fingertip;
-use crate::mesh::{segments, sub, scale, Solid, P3};
+use crate::mesh::{scale, segments, sub, Solid, P3};
 use crate::params::mold::MoldParams;
 use crate::part::{Assembly, Part};
 use serde_json::{json, Map};
@@ -73,7 +73,14 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let outer = Solid::from_mesh(&s.offset_mesh(t, tol, name)?, name)?;
     let surface = core_surface(p, &l, &body, tol);
     // into the mold's frame (the opening direction is +z there)
-    let to_mold = |x: &Solid| if l.frame.alpha == 0.0 { x.clone() } else { let (a, b, c, o) = l.frame.to_mold_columns(); x.place(a, b, c, o) };
+    let to_mold = |x: &Solid| {
+        if l.frame.alpha == 0.0 {
+            x.clone()
+        } else {
+            let (a, b, c, o) = l.frame.to_mold_columns();
+            x.place(a, b, c, o)
+        }
+    };
     let (outer_d, surface_d) = (outer, surface);
     let (outer, surface) = (to_mold(&outer_d), to_mold(&surface_d));
     let xs = l.x_start_m;
@@ -125,7 +132,8 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     // the flange must hold the sprue (it widens to its top) and the vents with a wall round them
     let r_sprue_top = sprue_radius(m, w + 1.0);
     let half_y = (lo[1].abs().max(hi[1].abs()) + 2.0 * w + 2.0 * (kr + kc)).max(sprue_xy[1].abs() + r_sprue_top + m.min_wall_mm);
-    let x_hi = (hi[0] + w).max(sprue_xy[0] + r_sprue_top + m.min_wall_mm).max(vent_xy.iter().map(|v| v[0] + m.vent_diameter_mm / 2.0 + m.min_wall_mm).fold(f64::NEG_INFINITY, f64::max));
+    let x_hi =
+        (hi[0] + w).max(sprue_xy[0] + r_sprue_top + m.min_wall_mm).max(vent_xy.iter().map(|v| v[0] + m.vent_diameter_mm / 2.0 + m.min_wall_mm).fold(f64::NEG_INFINITY, f64::max));
     let z_lo = lo[2] - w;
     let z_top = ze + w;
 
@@ -160,7 +168,12 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let shell = Solid::cuboid([x_lo_k, -half_y, z_lo], [x_hi, half_y, ze]).difference(&Solid::union_all(&shell_cut).expect("cup"));
     core.ok(&format!("{name}-core"))?;
     shell.ok(&format!("{name}-shell"))?;
-    let cover = if l.frame.alpha == 0.0 { cover } else { let (a, b, c, o) = l.frame.to_design_columns(); cover.place(a, b, c, o) };
+    let cover = if l.frame.alpha == 0.0 {
+        cover
+    } else {
+        let (a, b, c, o) = l.frame.to_design_columns();
+        cover.place(a, b, c, o)
+    };
     let a = Assembled {
         core,
         shell,
@@ -258,7 +271,13 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("pieces".into(), json!([core.name, shell.name]));
     entry.insert("cover".into(), json!(cover_name));
     entry.insert("material".into(), mat.clone());
-    entry.insert("demolding".into(), json!(format!("the core lifts along +z of the mold frame (the pad normal tilted {}° toward the tip), the shell drops along -z; parting plane square to it at the cover's edge", p.mold.demolding_tilt_deg)));
+    entry.insert(
+        "demolding".into(),
+        json!(format!(
+            "the core lifts along +z of the mold frame (the pad normal tilted {}° toward the tip), the shell drops along -z; parting plane square to it at the cover's edge",
+            p.mold.demolding_tilt_deg
+        )),
+    );
     entry.insert("parting_plane_z_mm".into(), json!(a.z_parting));
     entry.insert("checks".into(), measured);
     entry.insert("assembly".into(), json!(format!("{name}-assembly.3mf")));
@@ -298,7 +317,11 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("openings".into(), json!(std::iter::once(a.sprue).chain(a.vents.iter().copied()).map(|(xy, r)| json!({"xy": xy, "radius_mm": r})).collect::<Vec<_>>()));
     entry.insert(
         "domes_assembled".into(),
-        json!(l.domes.iter().map(|d| json!({"base": fm(d.base), "normal": fd(d.normal), "dome_diameter_mm": 2.0 * d.dome_r, "dome_height_mm": d.depth, "cavity_radius_mm": d.r_base})).collect::<Vec<_>>()),
+        json!(l
+            .domes
+            .iter()
+            .map(|d| json!({"base": fm(d.base), "normal": fd(d.normal), "dome_diameter_mm": 2.0 * d.dome_r, "dome_height_mm": d.depth, "cavity_radius_mm": d.r_base}))
+            .collect::<Vec<_>>()),
     );
     entry.insert(
         "seats_assembled".into(),

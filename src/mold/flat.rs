@@ -88,14 +88,22 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         let ov = dome.intersection(&sheet).volume();
         dome_overlap.push(ov);
         if ov > 1e-6 {
-            violations.push(Violation { part: name.to_string(), rule: "each sensor dome must fit its pattern with clearance ≥ 0", measured: format!("sensor[{i}]: overlap {ov:.5} mm³") });
+            violations.push(Violation {
+                part: name.to_string(),
+                rule: "each sensor dome must fit its pattern with clearance ≥ 0",
+                measured: format!("sensor[{i}]: overlap {ov:.5} mm³"),
+            });
         }
     }
     let tray_cavity = tray.intersection(&pocket).volume();
     let cast = pocket.volume() - tray_cavity;
     let k3 = k.powi(3);
     if ((cast / k3 - sheet.volume()) / sheet.volume()).abs() > 1e-6 {
-        violations.push(Violation { part: name.to_string(), rule: "the tray's cavity volume must equal the sheet's (times the shrinkage allowance)", measured: format!("{cast:.3} / {k3:.5} vs {:.3} mm³", sheet.volume()) });
+        violations.push(Violation {
+            part: name.to_string(),
+            rule: "the tray's cavity volume must equal the sheet's (times the shrinkage allowance)",
+            measured: format!("{cast:.3} / {k3:.5} vs {:.3} mm³", sheet.volume()),
+        });
     }
     // what cutting the sheet out and bending it round the pad costs: outer-fibre strain
     let s = &l.shape;

@@ -278,7 +278,12 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
             push(
                 "cover.dome_clearance_mm",
                 c.dome_clearance_mm.to_string(),
-                format!("the dome cavity over sensor[{i}] ({:.2} mm across) is wider than its flat seat ({} mm): use a clearance of at most {:.2} mm", 2.0 * d.r_base, sp.flat_diameter_mm, sp.flat_diameter_mm - 2.0 * d.dome_r),
+                format!(
+                    "the dome cavity over sensor[{i}] ({:.2} mm across) is wider than its flat seat ({} mm): use a clearance of at most {:.2} mm",
+                    2.0 * d.r_base,
+                    sp.flat_diameter_mm,
+                    sp.flat_diameter_mm - 2.0 * d.dome_r
+                ),
             );
         }
         if d.r_top < d.dome_r {
@@ -315,7 +320,12 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
         push(
             "cover.from_tip_mm",
             c.from_tip_mm.to_string(),
-            format!("runs too close to the mount face (body {} mm long): the mold's plug needs {} mm beyond the cover's end; use at most {:.1}", s.length, m.wall_thickness_mm + 1.0, s.length - m.wall_thickness_mm - 1.0),
+            format!(
+                "runs too close to the mount face (body {} mm long): the mold's plug needs {} mm beyond the cover's end; use at most {:.1}",
+                s.length,
+                m.wall_thickness_mm + 1.0,
+                s.length - m.wall_thickness_mm - 1.0
+            ),
         );
     }
     // a facet of the tessellation leans up to acos(1 − tol/R) from the exact surface's normal
@@ -347,7 +357,11 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
             push(
                 "cover.from_tip_mm",
                 c.from_tip_mm.to_string(),
-                format!("the cover ends at x = {:.2} mm but sensor[{i}]'s flat seat reaches x = {xmin:.2} mm (mold frame): cover at least {:.1} mm from the tip", l.x_start_m, c.from_tip_mm + (l.x_start_m - xmin) + 0.5),
+                format!(
+                    "the cover ends at x = {:.2} mm but sensor[{i}]'s flat seat reaches x = {xmin:.2} mm (mold frame): cover at least {:.1} mm from the tip",
+                    l.x_start_m,
+                    c.from_tip_mm + (l.x_start_m - xmin) + 0.5
+                ),
             );
         }
         if zmax > l.z_parting - 0.2 {
@@ -364,7 +378,13 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
         push(
             "mold.key_height_mm",
             m.key_height_mm.to_string(),
-            format!("the key holes ({} mm + {} mm clearance) would leave less than {} mm under them in a shell {floor_depth:.2} mm deep: use at most {:.2}", m.key_height_mm, m.key_clearance_mm, m.min_wall_mm, floor_depth - m.key_clearance_mm - m.min_wall_mm),
+            format!(
+                "the key holes ({} mm + {} mm clearance) would leave less than {} mm under them in a shell {floor_depth:.2} mm deep: use at most {:.2}",
+                m.key_height_mm,
+                m.key_clearance_mm,
+                m.min_wall_mm,
+                floor_depth - m.key_clearance_mm - m.min_wall_mm
+            ),
         );
     }
     if m.vent_diameter_mm > t - 0.1 {
@@ -391,7 +411,9 @@ pub fn material(p: &MoldParams, cover_mm3: f64) -> Value {
     let agent = total / (c.mix_ratio + 1.0);
     let m = p.mold.material;
     let cure = match m {
-        crate::params::mold::Material::Pla => "PLA softens near 55 °C: cure at room temperature (about 48 h at 25 °C) or at most 40 °C (about 24 h); do not use the 65–150 °C schedules",
+        crate::params::mold::Material::Pla => {
+            "PLA softens near 55 °C: cure at room temperature (about 48 h at 25 °C) or at most 40 °C (about 24 h); do not use the 65–150 °C schedules"
+        }
         _ => "cure at most 65 °C (about 4 h at 65 °C) or 48 h at room temperature; resin molds must be fully post-cured first or they inhibit the PDMS cure",
     };
     json!({

@@ -208,7 +208,14 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
                 );
             }
             if t - pad_depth > 10.0 * pad_depth {
-                c.push("body.thickness_mm", t, format!("more than 11 times the pad depth {pad_depth:.2} mm: the dorsal side would be a needle; use at most {:.1} or a smaller pad_transverse_radius_mm", 11.0 * pad_depth));
+                c.push(
+                    "body.thickness_mm",
+                    t,
+                    format!(
+                        "more than 11 times the pad depth {pad_depth:.2} mm: the dorsal side would be a needle; use at most {:.1} or a smaller pad_transverse_radius_mm",
+                        11.0 * pad_depth
+                    ),
+                );
             }
             if rtip >= pad_depth {
                 c.push("body.tip_radius_mm", rtip, format!("must be smaller than the pad depth {pad_depth:.2} mm ((width/2)² / pad_transverse_radius)"));

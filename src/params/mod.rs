@@ -8,9 +8,9 @@
 
 pub mod fingertip;
 pub mod mold;
+mod raw;
 pub mod rig;
 pub mod sensor;
-mod raw;
 
 pub use raw::{fields_of, part_name, Collector, Schema, SourceFile};
 
@@ -54,15 +54,9 @@ pub fn read_source(path: &Path) -> Result<SourceFile> {
 /// The file's `kind`, or a problem naming the allowed kinds.
 pub fn kind_of(src: &SourceFile) -> std::result::Result<Kind, Problem> {
     match src.value.get("kind") {
-        Some(toml::Value::String(s)) => Kind::parse(s).ok_or_else(|| {
-            src.problem("kind", format!("{s:?}"), format!("unknown kind; use one of {}", Kind::NAMES.join(", ")))
-        }),
+        Some(toml::Value::String(s)) => Kind::parse(s).ok_or_else(|| src.problem("kind", format!("{s:?}"), format!("unknown kind; use one of {}", Kind::NAMES.join(", ")))),
         Some(v) => Err(src.problem("kind", v.to_string(), "kind must be a string".into())),
-        None => Err(src.problem(
-            "kind",
-            "missing".into(),
-            format!("add a top-level `kind = \"...\"` line, one of {}", Kind::NAMES.join(", ")),
-        )),
+        None => Err(src.problem("kind", "missing".into(), format!("add a top-level `kind = \"...\"` line, one of {}", Kind::NAMES.join(", ")))),
     }
 }
 

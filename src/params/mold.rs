@@ -55,10 +55,8 @@ pub struct RawFlat {
 static COVER_SCHEMA: Schema = Schema { fields: fields_of::<RawCover>, tables: &[] };
 static MOLD_SCHEMA: Schema = Schema { fields: fields_of::<RawMold>, tables: &[] };
 static FLAT_SCHEMA: Schema = Schema { fields: fields_of::<RawFlat>, tables: &[] };
-pub static SCHEMA: Schema = Schema {
-    fields: || &["kind", "name", "fingertip", "style"],
-    tables: &[("cover", false, &COVER_SCHEMA), ("mold", false, &MOLD_SCHEMA), ("flat", false, &FLAT_SCHEMA)],
-};
+pub static SCHEMA: Schema =
+    Schema { fields: || &["kind", "name", "fingertip", "style"], tables: &[("cover", false, &COVER_SCHEMA), ("mold", false, &MOLD_SCHEMA), ("flat", false, &FLAT_SCHEMA)] };
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Style {

@@ -40,12 +40,7 @@ impl<'de> serde::Deserializer<'de> for FieldProbe<'_> {
         Err(serde::de::Error::custom("not a struct"))
     }
 
-    fn deserialize_struct<V: serde::de::Visitor<'de>>(
-        self,
-        _name: &'static str,
-        fields: &'static [&'static str],
-        _visitor: V,
-    ) -> std::result::Result<V::Value, Self::Error> {
+    fn deserialize_struct<V: serde::de::Visitor<'de>>(self, _name: &'static str, fields: &'static [&'static str], _visitor: V) -> std::result::Result<V::Value, Self::Error> {
         *self.0 = Some(fields);
         Err(serde::de::Error::custom("fields recorded"))
     }
@@ -103,7 +98,11 @@ impl SourceFile {
                     _ => out.push(self.problem(
                         &join(k),
                         short(v),
-                        if *array { format!("`{k}` must be an array of tables: write `[[{}]]` sections", join(k)) } else { format!("`{k}` must be a table: write a `[{}]` section", join(k)) },
+                        if *array {
+                            format!("`{k}` must be an array of tables: write `[[{}]]` sections", join(k))
+                        } else {
+                            format!("`{k}` must be a table: write a `[{}]` section", join(k))
+                        },
                     )),
                 }
             } else if !(schema.fields)().contains(&k.as_str()) {
@@ -141,7 +140,11 @@ impl SourceFile {
 
 fn short(v: &toml::Value) -> String {
     let s = v.to_string();
-    if s.len() > 40 { format!("{}…", &s[..40]) } else { s }
+    if s.len() > 40 {
+        format!("{}…", &s[..40])
+    } else {
+        s
+    }
 }
 
 /// 1-based line and column of a byte offset.

@@ -203,7 +203,11 @@ fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &Raw
     }
     if let (Some(sd), Some(cl), Some(disc), Some(sc)) = (stem_d, clear, disc, seat_c) {
         if sd + 2.0 * cl < disc + 2.0 * sc {
-            c.push("plunger.stem_diameter_mm", sd, format!("the guide bore ({:.2} mm) must clear the sensor seat ({:.2} mm) so the sensor can be placed", sd + 2.0 * cl, disc + 2.0 * sc));
+            c.push(
+                "plunger.stem_diameter_mm",
+                sd,
+                format!("the guide bore ({:.2} mm) must clear the sensor seat ({:.2} mm) so the sensor can be placed", sd + 2.0 * cl, disc + 2.0 * sc),
+            );
         }
     }
     if let (Some(st), Some(dh)) = (stop, dome_h) {
@@ -240,7 +244,11 @@ fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &Raw
     }
     if let (Some(tl), Some(bw), Some(disc)) = (tail_l, bw, disc) {
         if tl < bw / 2.0 - disc / 2.0 {
-            c.push("sensor.tail_length_mm", tl, format!("the tail does not reach the base edge ({:.1} mm from the seat): widen nothing, just check the sensor; the base is too wide for it", bw / 2.0 - disc / 2.0));
+            c.push(
+                "sensor.tail_length_mm",
+                tl,
+                format!("the tail does not reach the base edge ({:.1} mm from the seat): widen nothing, just check the sensor; the base is too wide for it", bw / 2.0 - disc / 2.0),
+            );
         }
     }
     if let (Some(pitch), Some(lw), Some(sd), Some(pt)) = (pitch, line_w, sdepth, plate_t) {
@@ -253,7 +261,14 @@ fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &Raw
     }
     Some(RigParams {
         name,
-        sensor: RigSensor { disc_diameter_mm: disc?, board_thickness_mm: board?, dome_diameter_mm: dome_d?, dome_height_mm: dome_h?, tail_width_mm: tail_w?, tail_length_mm: tail_l? },
+        sensor: RigSensor {
+            disc_diameter_mm: disc?,
+            board_thickness_mm: board?,
+            dome_diameter_mm: dome_d?,
+            dome_height_mm: dome_h?,
+            tail_width_mm: tail_w?,
+            tail_length_mm: tail_l?,
+        },
         base: Base { width_mm: bw?, height_mm: bh?, seat_clearance_mm: seat_c?, tail_slot_clearance_mm: slot_c?, sleeve_wall_mm: sleeve_wall? },
         plunger: Plunger {
             face_diameter_mm: face?,

@@ -95,11 +95,26 @@ static SAT: Schema = Schema { fields: || &["level_v"], tables: &[] };
 static SPIKES: Schema = Schema { fields: || &["amplitude_v", "duration_s"], tables: &[] };
 static EFFECTS: Schema = Schema {
     fields: || &[],
-    tables: &[("creep", false, &CREEP), ("hysteresis", false, &HYST), ("second_time_constant", false, &SECOND), ("baseline_drift", false, &DRIFT), ("saturation", false, &SAT), ("handling_spikes", false, &SPIKES)],
+    tables: &[
+        ("creep", false, &CREEP),
+        ("hysteresis", false, &HYST),
+        ("second_time_constant", false, &SECOND),
+        ("baseline_drift", false, &DRIFT),
+        ("saturation", false, &SAT),
+        ("handling_spikes", false, &SPIKES),
+    ],
 };
 pub static SENSOR_SCHEMA: Schema = Schema {
     fields: || &["kind"],
-    tables: &[("circuit", false, &CIRCUIT), ("conductance", false, &CONDUCTANCE), ("relaxation", false, &RELAX), ("noise", false, &NOISE), ("rig", false, &RIG), ("cover", false, &COVER), ("effects", false, &EFFECTS)],
+    tables: &[
+        ("circuit", false, &CIRCUIT),
+        ("conductance", false, &CONDUCTANCE),
+        ("relaxation", false, &RELAX),
+        ("noise", false, &NOISE),
+        ("rig", false, &RIG),
+        ("cover", false, &COVER),
+        ("effects", false, &EFFECTS),
+    ],
 };
 pub static PROTOCOL_SCHEMA: Schema = Schema { fields: || &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s"], tables: &[] };
 

@@ -48,8 +48,14 @@ fn base_solid(p: &RigParams, l: &Layout) -> Solid {
     let w = p.base.width_mm;
     let block = Solid::cuboid([-w / 2.0, -w / 2.0, 0.0], [w / 2.0, w / 2.0, l.base_top]);
     let r_out = l.bore_r + p.base.sleeve_wall_mm;
-    let tube = Solid::cylinder([0.0, 0.0, l.base_top - 0.5], UP, l.sleeve_top - l.base_top + 0.5, r_out, r_out, segments(r_out, tol))
-        .difference(&Solid::cylinder([0.0, 0.0, l.base_top], UP, l.sleeve_top - l.base_top + 1.0, l.bore_r, l.bore_r, segments(l.bore_r, tol)));
+    let tube = Solid::cylinder([0.0, 0.0, l.base_top - 0.5], UP, l.sleeve_top - l.base_top + 0.5, r_out, r_out, segments(r_out, tol)).difference(&Solid::cylinder(
+        [0.0, 0.0, l.base_top],
+        UP,
+        l.sleeve_top - l.base_top + 1.0,
+        l.bore_r,
+        l.bore_r,
+        segments(l.bore_r, tol),
+    ));
     let body = block.union(&tube);
     let r_seat = p.sensor.disc_diameter_mm / 2.0 + p.base.seat_clearance_mm;
     let recess = Solid::cylinder([0.0, 0.0, l.seat_floor], UP, p.sensor.board_thickness_mm + 1.0, r_seat, r_seat, segments(r_seat, tol));

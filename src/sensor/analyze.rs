@@ -119,7 +119,16 @@ fn prepare_with(recs: &[Recording], opts: &Options, extra: &[Vec<SpikeWindow>]) 
         if !o.mean_filter && opts.pre.mean_filter {
             notes.push(format!("mean filter off: the recording is at {:.2} Hz, not 100 Hz", r.sample_rate_hz()));
         }
-        infos.push(RecordingInfo { source: r.source.clone(), samples: r.len(), sample_rate_hz: r.sample_rate_hz(), unit: r.unit.to_string(), noise_sigma: s.sigma, steps: steps.len(), spikes, notes });
+        infos.push(RecordingInfo {
+            source: r.source.clone(),
+            samples: r.len(),
+            sample_rate_hz: r.sample_rate_hz(),
+            unit: r.unit.to_string(),
+            noise_sigma: s.sigma,
+            steps: steps.len(),
+            spikes,
+            notes,
+        });
         series.push(s);
         steps_all.push(steps);
     }
@@ -274,24 +283,25 @@ fn finish_report(recs: &[Recording], opts: &Options, prep: Prepared, infos: Vec<
             None
         }
     };
-    let report = Report {
-        schema: "tipforge.fit/1",
-        unit: recs.first().map(|r| r.unit.to_string()).unwrap_or_default(),
-        protocol: kind.column(),
-        recordings: infos,
-        steps,
-        fashion,
-        notes,
-    };
+    let report =
+        Report { schema: "tipforge.fit/1", unit: recs.first().map(|r| r.unit.to_string()).unwrap_or_default(), protocol: kind.column(), recordings: infos, steps, fashion, notes };
     (report, prep)
 }
 
 /// The table in the layout of the paper's Tables 1–2 (weight, k, τ, error), for one method.
 pub fn table(report: &Report, paper: bool) -> (String, String) {
     let mut csv = String::from("phase,step,load_before,load_after,weight,k,tau_s,eq4_error\n");
-    let mut md = format!("| phase | step | load | weight ({}) | k | τ (s) | Eq. 4 error ({}) |\n|---|---|---|---|---|---|---|\n", report.steps.first().map(|s| s.weight_unit).unwrap_or("kg"), report.unit);
+    let mut md = format!(
+        "| phase | step | load | weight ({}) | k | τ (s) | Eq. 4 error ({}) |\n|---|---|---|---|---|---|---|\n",
+        report.steps.first().map(|s| s.weight_unit).unwrap_or("kg"),
+        report.unit
+    );
     for s in &report.steps {
-        let row = if paper { s.paper.as_ref().map(|p| (p.k, p.tau_s, p.eq4)) } else { s.lsq.as_ref().map(|f| (s.lsq_k_per_weight.unwrap_or(f64::NAN), f.tau_s, s.lsq_eq4.unwrap_or(f64::NAN))) };
+        let row = if paper {
+            s.paper.as_ref().map(|p| (p.k, p.tau_s, p.eq4))
+        } else {
+            s.lsq.as_ref().map(|f| (s.lsq_k_per_weight.unwrap_or(f64::NAN), f.tau_s, s.lsq_eq4.unwrap_or(f64::NAN)))
+        };
         if let Some((k, tau, e)) = row {
             let ph = if s.phase == Phase::Loading { "loading" } else { "unloading" };
             csv += &format!("{ph},{},{},{},{},{:.6},{:.6},{:.6}\n", s.index, s.before, s.after, s.weight, k, tau, e);

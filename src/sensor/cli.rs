@@ -5,8 +5,8 @@ use super::recording::{self, Recording};
 use super::sim::{self, Cover};
 use crate::error::{Error, Problem, Problems, Result};
 use crate::export::Staged;
-use crate::params::sensor::{ProtocolParams, SensorParams};
 use crate::params::read_source;
+use crate::params::sensor::{ProtocolParams, SensorParams};
 use std::path::{Path, PathBuf};
 
 fn input(file: &str, path: &str, value: impl ToString, message: impl Into<String>) -> Error {
@@ -24,7 +24,13 @@ pub fn read_all(paths: &[PathBuf], progress: bool) -> Result<Vec<Recording>> {
         match recording::read(p) {
             Ok(r) => recs.push(r),
             Err(Error::Input(ps)) => problems.extend(ps.0),
-            Err(Error::Io { path, source }) => problems.push(Problem { file: path.display().to_string(), line: None, path: "(file)".into(), value: "unreadable".into(), message: format!("{source}: check the path") }),
+            Err(Error::Io { path, source }) => problems.push(Problem {
+                file: path.display().to_string(),
+                line: None,
+                path: "(file)".into(),
+                value: "unreadable".into(),
+                message: format!("{source}: check the path"),
+            }),
             Err(e) => return Err(e),
         }
     }
@@ -53,7 +59,16 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Resul
     let (report, prep) = analyze::analyze(&recs, &opts);
     let mut lines = Vec::new();
     for r in &report.recordings {
-        lines.push(format!("{}: {} samples at {:.2} Hz, {} steps, {} handling spike(s) excluded, noise {:.4} {}", r.source, r.samples, r.sample_rate_hz, r.steps, r.spikes.len(), r.noise_sigma, r.unit));
+        lines.push(format!(
+            "{}: {} samples at {:.2} Hz, {} steps, {} handling spike(s) excluded, noise {:.4} {}",
+            r.source,
+            r.samples,
+            r.sample_rate_hz,
+            r.steps,
+            r.spikes.len(),
+            r.noise_sigma,
+            r.unit
+        ));
         for n in &r.notes {
             lines.push(format!("  note: {n}"));
         }
@@ -162,7 +177,12 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
         let (mut rec, truth) = sim::simulate(&s, &p, preload, cover.as_ref(), seed);
         let name = if spec.trials > 1 { format!("{stem}-{}", k + 1) } else { stem.clone() };
         rec.source = format!("{name}.csv");
-        let comment = format!("tipforge simulate: sensor {}, protocol {}, preload {preload} g, seed {seed}{}", spec.sensor.display(), spec.protocol.display(), cover.as_ref().map(|c| format!(", PDMS cover {} mm at {}:1 (dome carries {:.3} of the load)", c.thickness_mm, c.mix_ratio, c.dome_share)).unwrap_or_default());
+        let comment = format!(
+            "tipforge simulate: sensor {}, protocol {}, preload {preload} g, seed {seed}{}",
+            spec.sensor.display(),
+            spec.protocol.display(),
+            cover.as_ref().map(|c| format!(", PDMS cover {} mm at {}:1 (dome carries {:.3} of the load)", c.thickness_mm, c.mix_ratio, c.dome_share)).unwrap_or_default()
+        );
         st.add(dir.join(format!("{name}.csv")), sim::to_csv(&rec, &comment).into_bytes());
         let mut tj = serde_json::json!({"schema": "tipforge.truth/1", "seed": seed, "preload_g": preload, "steps": truth.steps, "sensor": format!("{:?}", s), "protocol": format!("{:?}", p), "cover": cover});
         if let Some(o) = tj.as_object_mut() {
@@ -202,7 +222,8 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
         return Err(input(&recs[0].source, "response", recs[0].unit, "--sensor compares voltages: give the divider metadata (vcc_v, r_m_ohm, divider) or a voltage column"));
     }
     let sb = sp.as_ref().map(|s| super::diagnose::SimBaseline { sensor: s, preload_g: preload });
-    let d = super::diagnose::diagnose_with(&recs, &opts, sb.as_ref()).ok_or_else(|| input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
+    let d = super::diagnose::diagnose_with(&recs, &opts, sb.as_ref())
+        .ok_or_else(|| input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
     let lines = super::diagnose_out::summary(&d);
     let written = super::diagnose_out::stage(&d, out).commit()?;
     Ok(FitSummary { lines, written })

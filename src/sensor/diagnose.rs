@@ -25,8 +25,8 @@ pub const SCHEMA: &str = "tipforge.diagnosis/1";
 const TAU2_STEP: f64 = 1.371;
 const TAU2_GRID: [f64; 9] = [2.0, 2.742, 3.759, 5.154, 7.067, 9.689, 13.28, 18.21, 24.97];
 
-pub use super::catalogue::Effect;
 use super::catalogue::second_time_constant::Drive;
+pub use super::catalogue::Effect;
 use super::catalogue::{self, Steps, MODELLED as CATALOGUE};
 
 /// One step of one trial.
@@ -464,7 +464,9 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
     match e {
         Effect::Creep => serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span}),
         Effect::Hysteresis => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span}),
-        Effect::SecondTimeConstant if c.drive == Drive::Size => serde_json::json!({"drive": c.drive.label(), "after_loading_fraction": at(k), "after_unloading_fraction": at(k + 1), "tau2_s": c.tau2, "jump_after_loading_full_change": at(k) * span.abs(), "jump_after_unloading_full_change": at(k + 1) * span.abs()}),
+        Effect::SecondTimeConstant if c.drive == Drive::Size => {
+            serde_json::json!({"drive": c.drive.label(), "after_loading_fraction": at(k), "after_unloading_fraction": at(k + 1), "tau2_s": c.tau2, "jump_after_loading_full_change": at(k) * span.abs(), "jump_after_unloading_full_change": at(k + 1) * span.abs()})
+        }
         Effect::SecondTimeConstant => serde_json::json!({"drive": c.drive.label(), "fraction": at(k), "tau2_s": c.tau2}),
         Effect::BaselineDrift => serde_json::json!({"rate_per_s": at(k)}),
         Effect::Saturation => serde_json::json!({"level": c.clip}),
@@ -817,7 +819,12 @@ fn clipped_segments(trials: &[Trial], clip: f64) -> ClipSteps {
 /// τ of the other steps as a straight line in the load (least squares), as the first-order
 /// model's τ(F) is; None with fewer than two other steps.
 fn tau_line(trials: &[Trial], skip: &[(usize, usize)]) -> Option<(f64, f64)> {
-    let free: Vec<(f64, f64)> = trials.iter().enumerate().flat_map(|(k, tr)| tr.segs.iter().enumerate().filter(move |(s, _)| !skip.contains(&(k, *s))).map(|(_, sg)| (sg.load, sg.tau))).filter(|p| p.1 > 0.0).collect();
+    let free: Vec<(f64, f64)> = trials
+        .iter()
+        .enumerate()
+        .flat_map(|(k, tr)| tr.segs.iter().enumerate().filter(move |(s, _)| !skip.contains(&(k, *s))).map(|(_, sg)| (sg.load, sg.tau)))
+        .filter(|p| p.1 > 0.0)
+        .collect();
     if free.len() < 2 {
         return None;
     }
@@ -834,7 +841,8 @@ fn tau_line(trials: &[Trial], skip: &[(usize, usize)]) -> Option<(f64, f64)> {
 fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
     let sg = &tr.segs[s];
     let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
-    let pts: Vec<(f64, f64)> = tr.t.iter().zip(&tr.v).filter(|(&t, &v)| t >= sg.t0 - 1.0 && t < end && v < clip - tr.clip_margin.max(0.5 * tr.sigma).max(1e-12)).map(|(&t, &v)| (t, v)).collect();
+    let pts: Vec<(f64, f64)> =
+        tr.t.iter().zip(&tr.v).filter(|(&t, &v)| t >= sg.t0 - 1.0 && t < end && v < clip - tr.clip_margin.max(0.5 * tr.sigma).max(1e-12)).map(|(&t, &v)| (t, v)).collect();
     let mut best = (f64::INFINITY, sg.t0);
     for g in 0..=120 {
         let t0 = sg.t0 - 0.8 + 0.01 * g as f64;
@@ -919,7 +927,18 @@ fn hold_data(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &Hat) -
 fn signature(e: Effect, holds: &[HoldData], trials: &[Trial], clip: Option<f64>, report: &Report) -> Vec<Window> {
     let views: Vec<catalogue::Hold> = holds
         .iter()
-        .map(|h| catalogue::Hold { recording: &trials[h.trial].name, t: &h.t, r: &h.r, sigma: trials[h.trial].sigma, t0_s: h.t0, end_s: h.end, tau_s: h.tau, load: h.load, prev: h.prev, trial: h.trial })
+        .map(|h| catalogue::Hold {
+            recording: &trials[h.trial].name,
+            t: &h.t,
+            r: &h.r,
+            sigma: trials[h.trial].sigma,
+            t0_s: h.t0,
+            end_s: h.end,
+            tau_s: h.tau,
+            load: h.load,
+            prev: h.prev,
+            trial: h.trial,
+        })
         .collect();
     let found = match e {
         Effect::Creep => catalogue::creep::signature(&views),
@@ -933,7 +952,15 @@ fn signature(e: Effect, holds: &[HoldData], trials: &[Trial], clip: Option<f64>,
         Effect::HandlingSpikes => report
             .recordings
             .iter()
-            .flat_map(|r| r.spikes.iter().map(move |w| catalogue::Located { recording: r.source.clone(), start_s: w.start_s, end_s: w.end_s, statistic: format!("peak {:+.4} {}", w.peak, r.unit), z: f64::INFINITY }))
+            .flat_map(|r| {
+                r.spikes.iter().map(move |w| catalogue::Located {
+                    recording: r.source.clone(),
+                    start_s: w.start_s,
+                    end_s: w.end_s,
+                    statistic: format!("peak {:+.4} {}", w.peak, r.unit),
+                    z: f64::INFINITY,
+                })
+            })
             .collect(),
     };
     found.into_iter().map(|l| Window { recording: l.recording, start_s: l.start_s, end_s: l.end_s, statistic: l.statistic }).collect()
@@ -983,7 +1010,11 @@ fn step_transients(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &
             }
             let m = r.iter().sum::<f64>() / r.len() as f64;
             if m.abs() > 3.0 * tr.sigma {
-                if sg.load > sg.prev { up.push(m) } else { down.push(m) }
+                if sg.load > sg.prev {
+                    up.push(m)
+                } else {
+                    down.push(m)
+                }
             }
         }
     }
@@ -1005,7 +1036,10 @@ fn step_transients(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &
             "after {nu} loading and {nd} unloading steps the data run {sign} the model at first, whichever way the load changed ({size}): a response to the change itself (a strain-rate or overshoot transient), which no term of the catalogue has"
         ))
     } else if (pu >= 0.8 && pd <= 0.2) || (pu <= 0.2 && pd >= 0.8) {
-        Some(format!("after {nu} loading and {nd} unloading steps the early residual follows the step's direction ({size}): the relaxation is {} than the model's", if pu >= 0.8 { "faster at first" } else { "slower at first" }))
+        Some(format!(
+            "after {nu} loading and {nd} unloading steps the early residual follows the step's direction ({size}): the relaxation is {} than the model's",
+            if pu >= 0.8 { "faster at first" } else { "slower at first" }
+        ))
     } else {
         None
     }
@@ -1078,7 +1112,12 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         .enumerate()
         .flat_map(|(k, tr)| {
             let spikes = report.recordings.iter().find(|r| r.source == tr.name).map(|r| r.spikes.clone()).unwrap_or_default();
-            tr.segs.iter().enumerate().filter(move |(_, sg)| spikes.iter().any(|w| w.end_s >= sg.t0 - 0.5 && w.start_s <= sg.t0 + 1.0)).map(move |(s, _)| (k, s)).collect::<Vec<_>>()
+            tr.segs
+                .iter()
+                .enumerate()
+                .filter(move |(_, sg)| spikes.iter().any(|w| w.end_s >= sg.t0 - 0.5 && w.start_s <= sg.t0 + 1.0))
+                .map(move |(s, _)| (k, s))
+                .collect::<Vec<_>>()
         })
         .collect();
     let d = Design { loads: loads.clone(), n_trials: trials.len(), n_keys, refit_onset, prior: sim.is_some(), exact_shape: false };
@@ -1108,16 +1147,26 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         Some(g) => trials.iter().zip(g).map(|(tr, gt)| Trial { segs: gt.segs.clone(), ..tr.clone() }).collect(),
         None => trials.clone(),
     };
-    let base_fit: Vec<Trial> = if has_spikes { base_eval.iter().map(|tr| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), ..tr.clone() }).collect() } else { base_eval.clone() };
+    let base_fit: Vec<Trial> =
+        if has_spikes { base_eval.iter().map(|tr| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), ..tr.clone() }).collect() } else { base_eval.clone() };
     let (base, xb) = score_on(&d, &base_fit, &base_eval, &base_cfg, &hat)?;
     let (clean, xc) = if has_spikes { score(&d, &trials, &base_cfg, &hat)? } else { (base.clone(), xb.clone()) };
     let clip = clip_level(&trials);
     // locate: every test on the baseline's residuals (the clean fit), before any term is chosen
     let located: Vec<LocatedWindow> = {
         let holds = hold_data(&d, &trials, &xc, &base_cfg, &hat);
-        let mut all: Vec<LocatedWindow> = locate(&d, &trials, &xc, &base_cfg, &hat).into_iter().map(|w| LocatedWindow { test: "whiteness", recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic }).collect();
+        let mut all: Vec<LocatedWindow> = locate(&d, &trials, &xc, &base_cfg, &hat)
+            .into_iter()
+            .map(|w| LocatedWindow { test: "whiteness", recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic })
+            .collect();
         for e in [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation, Effect::HandlingSpikes] {
-            all.extend(signature(e, &holds, &trials, clip, &report).into_iter().map(|w| LocatedWindow { test: e.name(), recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic }));
+            all.extend(signature(e, &holds, &trials, clip, &report).into_iter().map(|w| LocatedWindow {
+                test: e.name(),
+                recording: w.recording,
+                start_s: w.start_s,
+                end_s: w.end_s,
+                statistic: w.statistic,
+            }));
         }
         all
     };
@@ -1140,13 +1189,17 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                 continue;
             }
             let cands: Vec<Config> = match e {
-                Effect::SecondTimeConstant => [Drive::Change, Drive::Size].iter().flat_map(|&drive| TAU2_GRID.iter().map(move |m| (drive, m))).map(|(drive, m)| {
-                    let mut c = cur.clone();
-                    c.effects.push(e);
-                    c.tau2 = m * med_tau;
-                    c.drive = drive;
-                    c
-                }).collect(),
+                Effect::SecondTimeConstant => [Drive::Change, Drive::Size]
+                    .iter()
+                    .flat_map(|&drive| TAU2_GRID.iter().map(move |m| (drive, m)))
+                    .map(|(drive, m)| {
+                        let mut c = cur.clone();
+                        c.effects.push(e);
+                        c.tau2 = m * med_tau;
+                        c.drive = drive;
+                        c
+                    })
+                    .collect(),
                 Effect::Saturation => {
                     let mut c = cur.clone();
                     c.effects.push(e);
@@ -1227,7 +1280,13 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         let params = term_params(&d, &c, &x, e, &hat);
         findings.push(Finding {
             effect: e.name(),
-            confidence: if dbic < -100.0 && gain > 0.05 { "high" } else if dbic < -30.0 { "medium" } else { "low" },
+            confidence: if dbic < -100.0 && gain > 0.05 {
+                "high"
+            } else if dbic < -30.0 {
+                "medium"
+            } else {
+                "low"
+            },
             explanation: if e == Effect::SecondTimeConstant { c.drive.explanation().to_string() } else { e.explanation().to_string() },
             windows,
             term: Term { name: format!("{}_term", e.name()), params },
@@ -1281,7 +1340,15 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         }
         let Some((idx, c, s_wo, x_wo, z)) = worst else { break };
         let gone = cur.effects[idx];
-        decisions.push(Decision { step: decisions.last().map(|d| d.step + 1).unwrap_or(0), candidate: gone.name(), heldout_rmse: s_wo.heldout_rmse, gain: -z, z: -z, delta_bic: s_wo.bic - cur_score.bic, accepted: false });
+        decisions.push(Decision {
+            step: decisions.last().map(|d| d.step + 1).unwrap_or(0),
+            candidate: gone.name(),
+            heldout_rmse: s_wo.heldout_rmse,
+            gain: -z,
+            z: -z,
+            delta_bic: s_wo.bic - cur_score.bic,
+            accepted: false,
+        });
         findings.retain(|f| f.effect != gone.name());
         cur = c;
         cur_score = s_wo;
@@ -1312,7 +1379,10 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             findings.push(Finding {
                 effect: Effect::Saturation.name(),
                 confidence: "medium",
-                explanation: format!("{}; the per-load levels absorb the clip, so held-out prediction cannot improve: the evidence is the plateau itself", Effect::Saturation.explanation()),
+                explanation: format!(
+                    "{}; the per-load levels absorb the clip, so held-out prediction cannot improve: the evidence is the plateau itself",
+                    Effect::Saturation.explanation()
+                ),
                 windows,
                 term: Term { name: "saturation_term".into(), params: serde_json::json!({"level": level}) },
                 heldout_rmse_before: cur_score.heldout_rmse,
@@ -1396,7 +1466,16 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         schema: SCHEMA,
         recordings: recs.iter().map(|r| r.source.clone()).collect(),
         unit: report.unit.clone(),
-        baseline: Baseline { model: if sim.is_some() { "the simulator's first-order prediction for the logged protocol (per-trial offsets fitted)".into() } else { "first-order step per load change, levels shared across trials (the paper's model, fitted exactly)".into() }, rmse: base.rmse, heldout_rmse: base.heldout_rmse, bic: base.bic },
+        baseline: Baseline {
+            model: if sim.is_some() {
+                "the simulator's first-order prediction for the logged protocol (per-trial offsets fitted)".into()
+            } else {
+                "first-order step per load change, levels shared across trials (the paper's model, fitted exactly)".into()
+            },
+            rmse: base.rmse,
+            heldout_rmse: base.heldout_rmse,
+            bic: base.bic,
+        },
         final_: Final { effects: cur.effects.iter().map(|e| e.name()).collect(), rmse: cur_score.rmse, heldout_rmse: cur_score.heldout_rmse },
         findings,
         unexplained,

@@ -9,10 +9,7 @@ use std::path::Path;
 /// The terminal summary: one sentence per finding, then the overall result.
 pub fn summary(d: &Diagnosis) -> Vec<String> {
     let mut out = Vec::new();
-    out.push(format!(
-        "baseline (first-order steps): held-out RMSE {:.4} {}, fit RMSE {:.4}",
-        d.baseline.heldout_rmse, d.unit, d.baseline.rmse
-    ));
+    out.push(format!("baseline (first-order steps): held-out RMSE {:.4} {}, fit RMSE {:.4}", d.baseline.heldout_rmse, d.unit, d.baseline.rmse));
     if d.findings.is_empty() {
         out.push("no physics left out was found: every catalogue term failed to improve held-out prediction".into());
     }
@@ -24,7 +21,11 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
         ));
     }
     if d.unexplained.flag {
-        out.push(format!("unexplained structure remains ({} item(s) of evidence in diagnosis.json), e.g. {}", d.unexplained.evidence.len(), d.unexplained.evidence.first().cloned().unwrap_or_default()));
+        out.push(format!(
+            "unexplained structure remains ({} item(s) of evidence in diagnosis.json), e.g. {}",
+            d.unexplained.evidence.len(),
+            d.unexplained.evidence.first().cloned().unwrap_or_default()
+        ));
     }
     out.push(format!("improved model: {:?}; held-out RMSE {:.4} → {:.4} {}", d.final_.effects, d.baseline.heldout_rmse, d.final_.heldout_rmse, d.unit));
     out
@@ -51,7 +52,11 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
                 title: format!("{}: RECORDING AND MODELS", p.stem),
                 x_label: "TIME S".into(),
                 y_label: d.unit.clone(),
-                series: vec![Series::points("measured", t.clone(), p.measured.clone(), [150, 150, 150]), Series::line("baseline", t.clone(), p.baseline.clone(), PALETTE[1]), Series::line("improved", t.clone(), p.improved.clone(), PALETTE[0])],
+                series: vec![
+                    Series::points("measured", t.clone(), p.measured.clone(), [150, 150, 150]),
+                    Series::line("baseline", t.clone(), p.baseline.clone(), PALETTE[1]),
+                    Series::line("improved", t.clone(), p.improved.clone(), PALETTE[0]),
+                ],
                 shade: p.windows.clone(),
             },
             Chart {
@@ -78,7 +83,10 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     }
     html += "</table>\n<h2>Decisions</h2>\n<p>A term enters when its held-out improvement has a paired z ≥ 3 over units and it lowers BIC by at least 10; a kept term leaves when, given the others, it no longer passes and the others pass without it.</p>\n<table><tr><th>round</th><th>candidate</th><th>held-out RMSE</th><th>gain</th><th>paired z</th><th>ΔBIC</th><th>accepted</th></tr>\n";
     for dc in &d.decisions {
-        html += &format!("<tr><td>{}</td><td>{}</td><td>{:.5}</td><td>{:+.3}</td><td>{:.2}</td><td>{:.1}</td><td>{}</td></tr>\n", dc.step, dc.candidate, dc.heldout_rmse, dc.gain, dc.z, dc.delta_bic, dc.accepted);
+        html += &format!(
+            "<tr><td>{}</td><td>{}</td><td>{:.5}</td><td>{:+.3}</td><td>{:.2}</td><td>{:.1}</td><td>{}</td></tr>\n",
+            dc.step, dc.candidate, dc.heldout_rmse, dc.gain, dc.z, dc.delta_bic, dc.accepted
+        );
     }
     html += "</table>\n<h2>Recordings, models and residuals</h2>\n<p>Shaded: windows where the model failed or a finding applies.</p>\n";
     for i in &imgs {

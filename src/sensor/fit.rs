@@ -312,7 +312,6 @@ fn tau_guess(d: &StepData) -> Option<f64> {
     Some(median(&mut g))
 }
 
-
 /// Variable projection over τ.
 pub fn varpro(d: &StepData) -> Option<StepFit> {
     let w = d.trials.len();
@@ -652,4 +651,3 @@ mod tests {
         assert!((p.k * 0.2 / 0.6 - 1.0).abs() < 0.2);
     }
 }
-

@@ -7,7 +7,7 @@ pub mod diagnose;
 pub mod diagnose_out;
 pub mod fashion;
 pub mod fit;
-pub mod preprocess;
 pub mod output;
+pub mod preprocess;
 pub mod recording;
 pub mod sim;

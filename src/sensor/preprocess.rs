@@ -267,14 +267,37 @@ mod tests {
     use crate::sensor::recording::{Meta, ProtocolKind, Recording};
 
     fn rec(t: Vec<f64>, v: Vec<f64>, g: Vec<f64>) -> Recording {
-        Recording { source: "x.csv".into(), meta: Meta::default(), time_s: t, response: v, unit: "V", response_column: "voltage_v", protocol: g, protocol_kind: ProtocolKind::LoadG, ignored_columns: vec![] }
+        Recording {
+            source: "x.csv".into(),
+            meta: Meta::default(),
+            time_s: t,
+            response: v,
+            unit: "V",
+            response_column: "voltage_v",
+            protocol: g,
+            protocol_kind: ProtocolKind::LoadG,
+            ignored_columns: vec![],
+        }
     }
 
     #[test]
     fn segments_loading_and_unloading_and_ignores_glitches() {
         let n = 6000;
         let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
-        let g: Vec<f64> = t.iter().map(|&x| if x < 10.0 { 0.0 } else if x < 30.0 { 200.0 } else if x < 45.0 { 400.0 } else { 200.0 }).collect();
+        let g: Vec<f64> = t
+            .iter()
+            .map(|&x| {
+                if x < 10.0 {
+                    0.0
+                } else if x < 30.0 {
+                    200.0
+                } else if x < 45.0 {
+                    400.0
+                } else {
+                    200.0
+                }
+            })
+            .collect();
         let mut g = g;
         g[2000] = 0.0; // a one-sample glitch
         let (steps, notes) = segment(&rec(t.clone(), vec![0.0; n], g), &Options::default());

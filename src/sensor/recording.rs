@@ -159,7 +159,16 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
             let find = |want: &str| names.iter().enumerate().filter(|(_, c)| *c == want).map(|(i, _)| i).collect::<Vec<_>>();
             let time = find("time_s");
             if time.len() != 1 {
-                p.at(n, "header", line, if time.is_empty() { "no `time_s` column: the first non-comment line must be a header naming time_s, one response column and one protocol column" } else { "`time_s` appears more than once" });
+                p.at(
+                    n,
+                    "header",
+                    line,
+                    if time.is_empty() {
+                        "no `time_s` column: the first non-comment line must be a header naming time_s, one response column and one protocol column"
+                    } else {
+                        "`time_s` appears more than once"
+                    },
+                );
             }
             let resp: Vec<(usize, &str)> = RESPONSES.iter().flat_map(|c| find(c).into_iter().map(move |i| (i, *c))).collect();
             if resp.len() != 1 {
@@ -218,10 +227,10 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
         r.push(vals[1]);
         g.push(vals[2]);
     }
-    if header.is_none() {
-        p.at(1, "(file)", "empty", "no header and no data: a recording needs a header row (time_s, a response column, a protocol column) and data rows");
-    } else if t.is_empty() && p.out.is_empty() {
-        p.at(header.as_ref().unwrap().0, "(file)", "no data rows", "the file has a header but no data");
+    match &header {
+        None => p.at(1, "(file)", "empty", "no header and no data: a recording needs a header row (time_s, a response column, a protocol column) and data rows"),
+        Some((hn, _)) if t.is_empty() && p.out.is_empty() => p.at(*hn, "(file)", "no data rows", "the file has a header but no data"),
+        Some(_) => {}
     }
     // contradictory metadata
     if let (Some(fs), true) = (meta.sample_rate_hz, t.len() > 10) {
@@ -229,7 +238,12 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
         d.sort_by(|a, b| a.partial_cmp(b).unwrap());
         let med = d[d.len() / 2];
         if ((1.0 / med) / fs - 1.0).abs() > 0.1 {
-            p.at(meta_lines.get("sample_rate_hz").copied().unwrap_or(1), "sample_rate_hz", fs, format!("contradicts the time column (median interval {med:.5} s = {:.2} Hz): fix the metadata", 1.0 / med));
+            p.at(
+                meta_lines.get("sample_rate_hz").copied().unwrap_or(1),
+                "sample_rate_hz",
+                fs,
+                format!("contradicts the time column (median interval {med:.5} s = {:.2} Hz): fix the metadata", 1.0 / med),
+            );
         }
     }
     if let (Some(bits), Some(_)) = (meta.adc_bits, meta.vref_v) {
@@ -245,7 +259,12 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
         "adc_counts" => match (meta.adc_bits, meta.vref_v) {
             (Some(bits), Some(vref)) => (r.iter().map(|c| c / ((1u64 << bits) as f64 - 1.0) * vref).collect(), "V"),
             _ => {
-                p.at(header.as_ref().map(|h| h.0).unwrap_or(1), "adc_counts", "no adc_bits/vref_v", "converting counts to volts needs `# adc_bits=12` and `# vref_v=3.3` metadata lines");
+                p.at(
+                    header.as_ref().map(|h| h.0).unwrap_or(1),
+                    "adc_counts",
+                    "no adc_bits/vref_v",
+                    "converting counts to volts needs `# adc_bits=12` and `# vref_v=3.3` metadata lines",
+                );
                 (r, "counts")
             }
         },
@@ -265,7 +284,13 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
     };
     if !p.out.is_empty() {
         if bad_rows > 50 {
-            p.out.push(Problem { file: file.into(), line: None, path: "(rows)".into(), value: format!("{bad_rows} bad rows"), message: "only the first 50 problems are listed".into() });
+            p.out.push(Problem {
+                file: file.into(),
+                line: None,
+                path: "(rows)".into(),
+                value: format!("{bad_rows} bad rows"),
+                message: "only the first 50 problems are listed".into(),
+            });
         }
         return Err(Error::Input(Problems(p.out)));
     }
@@ -299,10 +324,8 @@ fn parse_meta(p: &mut P, n: usize, k: &str, v: &str, m: &mut Meta) {
         _ => {}
     }
     if let (Some(vcc), Some(vref)) = (m.vcc_v, m.vref_v) {
-        if k == "vref_v" || k == "vcc_v" {
-            if vref > 0.0 && vcc > 2.0 * vref.max(1e-9) * 10.0 {
-                p.at(n, k, v, format!("vcc_v = {vcc} and vref_v = {vref} contradict each other"));
-            }
+        if (k == "vref_v" || k == "vcc_v") && vref > 0.0 && vcc > 2.0 * vref.max(1e-9) * 10.0 {
+            p.at(n, k, v, format!("vcc_v = {vcc} and vref_v = {vref} contradict each other"));
         }
     }
 }

@@ -204,7 +204,7 @@ pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover:
         clean.push(v);
         fo.push(first);
         // the operator's log: the load changes when logged
-        let lg = logs.iter().zip(&events).filter(|(l, _)| **l <= tk).map(|(_, ev)| ev.1).last().unwrap_or(0.0);
+        let lg = logs.iter().zip(&events).filter(|(l, _)| **l <= tk).map(|(_, ev)| ev.1).next_back().unwrap_or(0.0);
         logged.push(lg);
     }
     let full = (1u64 << c.adc_bits.min(32)) as f64 - 1.0;
@@ -230,7 +230,17 @@ pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover:
         divider: Some(if c.sensor_high { Divider::SensorHigh } else { Divider::SensorLow }),
         all: Default::default(),
     };
-    let rec = Recording { source: format!("sim-{seed}.csv"), meta, time_s: time, response: recorded, unit: "V", response_column: "voltage_v", protocol: logged, protocol_kind: ProtocolKind::LoadG, ignored_columns: vec![] };
+    let rec = Recording {
+        source: format!("sim-{seed}.csv"),
+        meta,
+        time_s: time,
+        response: recorded,
+        unit: "V",
+        response_column: "voltage_v",
+        protocol: logged,
+        protocol_kind: ProtocolKind::LoadG,
+        ignored_columns: vec![],
+    };
     (rec, Truth { seed, preload_g, steps, clean_v: clean, first_order_v: fo })
 }
 

@@ -46,7 +46,13 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
         let se_b = se_mean * (n / sxx).sqrt();
         let z = b / se_b.max(1e-300);
         if z.abs() >= MIN_SIGNATURE_Z {
-            out.push(Located { recording: h.recording.to_string(), start_s: h.t[idx[0]], end_s: h.end_s, statistic: format!("trend within the hold: {} per decade of time after 3τ (t = {:.1})", sig3(b), z), z: z.abs() });
+            out.push(Located {
+                recording: h.recording.to_string(),
+                start_s: h.t[idx[0]],
+                end_s: h.end_s,
+                statistic: format!("trend within the hold: {} per decade of time after 3τ (t = {:.1})", sig3(b), z),
+                z: z.abs(),
+            });
         }
     }
     out
@@ -55,7 +61,6 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
 
     #[test]
     fn grows_per_decade_under_load_and_relaxes_after_removal() {

@@ -29,7 +29,13 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
         let Some(l) = holds.iter().find(|h| h.trial == u.trial && h.load > h.prev && h.load == u.load) else { continue };
         let Some((d, z)) = offset_z(&late_half(u), &late_half(l)) else { continue };
         if z.abs() >= MIN_SIGNATURE_Z {
-            out.push(Located { recording: u.recording.to_string(), start_s: u.t0_s, end_s: u.end_s, statistic: format!("unloading branch off the loading branch at load {}: {} (z = {:.1})", u.load, sig3(d), z), z: z.abs() });
+            out.push(Located {
+                recording: u.recording.to_string(),
+                start_s: u.t0_s,
+                end_s: u.end_s,
+                statistic: format!("unloading branch off the loading branch at load {}: {} (z = {:.1})", u.load, sig3(d), z),
+                z: z.abs(),
+            });
         }
     }
     out

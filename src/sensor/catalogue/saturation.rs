@@ -9,7 +9,8 @@
 
 use super::Located;
 
-pub const EXPLANATION: &str = "the response is clipped at a ceiling (ADC reference or amplifier rail): samples pile up at one value under the highest loads, modelled by clipping the prediction";
+pub const EXPLANATION: &str =
+    "the response is clipped at a ceiling (ADC reference or amplifier rail): samples pile up at one value under the highest loads, modelled by clipping the prediction";
 
 /// The clip level of the series, if they show a clipped plateau.
 pub fn clip_level(series: &[&[f64]], sigma: f64) -> Option<f64> {

@@ -67,7 +67,13 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
         let np = r.iter().filter(|e| **e > 0.0).count() as f64;
         let nm = r.len() as f64 - np;
         if np < 1.0 || nm < 1.0 {
-            out.push(Located { recording: h.recording.to_string(), start_s: h.t0_s, end_s: stop, statistic: format!("early residual of one sign over {} samples", r.len()), z: r.len() as f64 });
+            out.push(Located {
+                recording: h.recording.to_string(),
+                start_s: h.t0_s,
+                end_s: stop,
+                statistic: format!("early residual of one sign over {} samples", r.len()),
+                z: r.len() as f64,
+            });
             continue;
         }
         let n = np + nm;
@@ -82,7 +88,13 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
         let expected = 1.0 + late_rate * (n - 1.0);
         let z_rel = (runs - expected) / var.max(1e-300).sqrt();
         if z.min(z_rel) <= -MIN_SIGNATURE_Z && z_rel <= -MIN_SIGNATURE_Z {
-            out.push(Located { recording: h.recording.to_string(), start_s: h.t0_s, end_s: stop, statistic: format!("{runs:.0} sign runs in the first 10τ where {expected:.0} were expected (runs test z = {z_rel:.1})"), z: -z_rel });
+            out.push(Located {
+                recording: h.recording.to_string(),
+                start_s: h.t0_s,
+                end_s: stop,
+                statistic: format!("{runs:.0} sign runs in the first 10τ where {expected:.0} were expected (runs test z = {z_rel:.1})"),
+                z: -z_rel,
+            });
         }
     }
     out
@@ -91,7 +103,6 @@ pub fn signature(holds: &[Hold]) -> Vec<Located> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
 
     #[test]
     fn change_drive_follows_the_sign_and_size_drive_does_not() {
