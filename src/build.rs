@@ -72,7 +72,32 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Vec<(String, &'static st
     let mut problems: Vec<Problem> = Vec::new();
     let mut loaded = Vec::new();
     let mut skipped = Vec::new();
-    for path in part_files(&opts.params_dir)? {
+    let files = part_files(&opts.params_dir).map_err(|e| match e {
+        Error::Io { path, err } => Error::Input(Problems(vec![Problem {
+            file: path.display().to_string(),
+            line: None,
+            path: "--params".into(),
+            value: "unreadable".into(),
+            message: format!("{err}: give --params the folder of parameter files (default params)"),
+        }])),
+        e => e,
+    })?;
+    let stems: Vec<String> = files.iter().filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(str::to_string)).collect();
+    for name in opts.only.iter().filter(|n| !stems.contains(n)) {
+        let known: Vec<&str> = stems.iter().map(String::as_str).collect();
+        let hint = match params::nearest(name, &known) {
+            Some(s) => format!("did you mean `{s}`?"),
+            None => format!("the files there are: {}", known.join(", ")),
+        };
+        problems.push(Problem {
+            file: opts.params_dir.display().to_string(),
+            line: None,
+            path: "PART".into(),
+            value: name.clone(),
+            message: format!("no {}.toml in {}; {hint}", name, opts.params_dir.display()),
+        });
+    }
+    for path in files {
         let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("").to_string();
         if !opts.only.is_empty() && !opts.only.contains(&stem) {
             continue;
@@ -93,7 +118,15 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Vec<(String, &'static st
             }
         };
         if !kind.is_part() {
-            skipped.push((path.display().to_string(), "not a part file (sensor or protocol parameters)"));
+            if opts.only.contains(&stem) {
+                problems.push(src.problem(
+                    "kind",
+                    format!("{kind:?}").to_lowercase(),
+                    format!("{stem} is not a part file: `build` makes fingertips, rigs and molds; sensor and protocol files are read by `simulate`"),
+                ));
+            } else {
+                skipped.push((path.display().to_string(), "not a part file (sensor or protocol parameters)"));
+            }
             continue;
         }
         let rel = path.display().to_string();
@@ -135,7 +168,15 @@ pub fn build_job(job: &Job) -> Result<Built> {
 
 /// The whole build: load, build, check, write.
 pub fn run(opts: &Options) -> Result<Report> {
-    let (loaded, skipped) = load_all(opts)?;
+    let out_ok = crate::export::check_out_dir(&opts.out_dir, "--out", "give --out a folder (it is created if missing)");
+    let (loaded, skipped) = match (out_ok, load_all(opts)) {
+        (Ok(()), Ok(l)) => l,
+        (Err(Error::Input(mut a)), Err(Error::Input(b))) => {
+            a.0.extend(b.0);
+            return Err(Error::Input(a));
+        }
+        (Err(e), _) | (_, Err(e)) => return Err(e),
+    };
     let mut staged = Staged::default();
     let mut entries = Map::new();
     let mut summaries = Vec::new();
@@ -182,6 +223,12 @@ pub fn run(opts: &Options) -> Result<Report> {
     if !violations.is_empty() {
         let msg = violations.iter().map(|v| format!("  {v}")).collect::<Vec<_>>().join("\n");
         return Err(Error::geometry("build", format!("checks failed, nothing written:\n{msg}")));
+    }
+    if !opts.only.is_empty() {
+        // a build of some parts keeps the manifest's entries of the others, whose files stay in out/
+        if let Some(old) = std::fs::read(opts.out_dir.join("manifest.json")).ok().and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok()) {
+            manifest::keep_others(&old, &mut entries, &mut sections);
+        }
     }
     staged.add(opts.out_dir.join("manifest.json"), manifest::document(entries, sections));
     let written = staged.commit()?;

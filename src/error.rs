@@ -46,8 +46,9 @@ pub enum Error {
     /// Bad input: every problem found, each with its path, value and fix.
     #[error("{0}")]
     Input(Problems),
-    #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    /// Not marked as the error's source, so a printed chain does not repeat the I/O message.
+    #[error("{path}: {err}")]
+    Io { path: PathBuf, err: std::io::Error },
     /// The geometry kernel or a check refused a part built from valid parameters.
     #[error("part {part}: {message}")]
     Geometry { part: String, message: String },
@@ -55,7 +56,7 @@ pub enum Error {
 
 impl Error {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io { path: path.into(), source }
+        Error::Io { path: path.into(), err: source }
     }
     pub fn geometry(part: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Geometry { part: part.into(), message: message.into() }

@@ -224,3 +224,64 @@ fn a_part_name_cannot_leave_the_output_folder() {
         assert!(!d.join("escaped.stl").exists() && !d.join("out").exists());
     }
 }
+
+/// Paths given on the command line that cannot be used are input problems (exit 2) naming the
+/// option and the fix, found before any work; nothing is written.
+#[test]
+fn unusable_paths_on_the_command_line_are_input_errors() {
+    let d = dir("paths");
+    let file = d.join("afile");
+    std::fs::write(&file, "x").unwrap();
+    let (f, sub) = (file.to_str().unwrap().to_string(), file.join("sub").to_str().unwrap().to_string());
+    let missing = d.join("missing.toml").to_str().unwrap().to_string();
+    let rec = d.join("rec.csv");
+    let rec_s = rec.to_str().unwrap().to_string();
+    let (code, text) = tipforge(&["simulate", "--seed", "3", "-o", &rec_s]);
+    assert_eq!(code, 0, "{text}");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["build", "--out", &f], "--out"),
+        (vec!["build", "--out", &sub], "is a file"),
+        (vec!["diagnose", &rec_s, "--out", &f], "give --out a folder"),
+        (vec!["fit", &rec_s, "--out", &sub], "--out"),
+        (vec!["simulate", "-o", &sub], "give -o a file name"),
+        (vec!["simulate", "-o", d.to_str().unwrap()], "is a folder"),
+        (vec!["simulate", "--sensor", &missing, "-o", "x.csv"], "check the path given to --sensor"),
+        (vec!["simulate", "--cover", &missing, "-o", "x.csv"], "check the path given to --cover"),
+        (vec!["simulate", "--rig", &missing, "-o", "x.csv"], "check the path given to --rig"),
+        (vec!["diagnose", &rec_s, "--sensor", &missing, "--out", &sub], "--sensor"),
+        (vec!["diagnose", &rec_s, "--sensor", &missing, "--out", &sub], "2 problem(s)"),
+        (vec!["simulate", "--sensor", &missing, "-o", &sub], "2 problem(s)"),
+        (vec!["build", "fingertip-1x", "--out", &f], "2 problem(s)"),
+        (vec!["build", "--params", &missing], "give --params the folder"),
+        (vec!["build", "fingertip-1x"], "did you mean `fingertip-1s`?"),
+        (vec!["build", "sensor"], "not a part file"),
+    ];
+    for (args, needle) in cases {
+        let (code, text) = tipforge(&args);
+        assert_eq!(code, 2, "{args:?}: {text}");
+        assert!(text.contains(needle), "{args:?}: missing {needle:?} in:\n{text}");
+        assert!(!text.contains("os error 2): No such file"), "{args:?}: the I/O message is repeated:\n{text}");
+    }
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
+    assert!(!Path::new("x.csv").exists());
+}
+
+/// Building some parts keeps the other parts' manifest entries, byte for byte.
+#[test]
+fn building_some_parts_keeps_the_manifest_of_the_others() {
+    let d = dir("subset");
+    for f in ["fingertip-1s", "rig", "sensor"] {
+        std::fs::copy(format!("params/{f}.toml"), d.join(format!("params/{f}.toml"))).unwrap();
+    }
+    let (p, o) = (d.join("params"), d.join("out"));
+    let (p, o) = (p.to_str().unwrap(), o.to_str().unwrap());
+    let (code, text) = tipforge(&["build", "--params", p, "--out", o]);
+    assert_eq!(code, 0, "{text}");
+    let full = std::fs::read(d.join("out/manifest.json")).unwrap();
+    let (code, text) = tipforge(&["build", "--params", p, "--out", o, "fingertip-1s"]);
+    assert_eq!(code, 0, "{text}");
+    let after = std::fs::read(d.join("out/manifest.json")).unwrap();
+    assert!(full == after, "the manifest changed:\n{}", String::from_utf8_lossy(&after));
+    let v: serde_json::Value = serde_json::from_slice(&after).unwrap();
+    assert!(v["parts"].get("rig-plunger").is_some() && v["rigs"].as_object().is_some_and(|r| !r.is_empty()), "{v}");
+}

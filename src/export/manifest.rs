@@ -37,6 +37,29 @@ pub fn entry(part: &Part, source: &str, source_sha256: &str, files: &[String]) -
     Value::Object(m)
 }
 
+/// Adds to `parts` and the sections every entry of an earlier manifest (`tipforge.manifest/1`)
+/// that the new build does not replace; anything else in it is dropped.
+pub fn keep_others(old: &Value, parts: &mut Map<String, Value>, sections: &mut Map<String, Value>) {
+    if old.get("schema").and_then(Value::as_str) != Some("tipforge.manifest/1") {
+        return;
+    }
+    let Some(top) = old.as_object() else { return };
+    for (key, value) in top {
+        let Some(old_entries) = value.as_object() else { continue };
+        let target = match key.as_str() {
+            "parts" => &mut *parts,
+            "tool" | "units" => continue,
+            _ => match sections.entry(key.clone()).or_insert_with(|| Value::Object(Map::new())) {
+                Value::Object(o) => o,
+                _ => continue,
+            },
+        };
+        for (name, entry) in old_entries {
+            target.entry(name.clone()).or_insert_with(|| entry.clone());
+        }
+    }
+}
+
 pub fn document(parts: Map<String, Value>, extra: Map<String, Value>) -> Vec<u8> {
     let mut top = Map::new();
     top.insert("schema".into(), json!("tipforge.manifest/1"));

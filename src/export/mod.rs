@@ -45,6 +45,33 @@ impl Staged {
     }
 }
 
+/// The output folder given with `option` must be a folder or not exist yet (it is created): a
+/// file there, or a file where one of its parents should be, is the user's input problem, found
+/// before any work is done.
+pub fn check_out_dir(dir: &Path, option: &str, fix: &str) -> Result<()> {
+    let mut at = Some(dir);
+    while let Some(p) = at {
+        if p.as_os_str().is_empty() {
+            break;
+        }
+        if let Ok(meta) = std::fs::metadata(p) {
+            if meta.is_dir() {
+                return Ok(());
+            }
+            let what = if p == dir { "is a file, not a folder".to_string() } else { format!("cannot be created: {} is a file", p.display()) };
+            return Err(Error::Input(crate::error::Problems(vec![crate::error::Problem {
+                file: dir.display().to_string(),
+                line: None,
+                path: option.to_string(),
+                value: dir.display().to_string(),
+                message: format!("{what}; {fix}"),
+            }])));
+        }
+        at = p.parent();
+    }
+    Ok(())
+}
+
 fn tmp_name(path: &Path) -> PathBuf {
     let mut s = path.as_os_str().to_owned();
     s.push(".tmp-tipforge");

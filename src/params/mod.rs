@@ -12,7 +12,7 @@ mod raw;
 pub mod rig;
 pub mod sensor;
 
-pub use raw::{fields_of, part_name, Collector, Schema, SourceFile};
+pub use raw::{fields_of, nearest, part_name, Collector, Schema, SourceFile};
 
 use crate::error::{Error, Problem, Problems, Result};
 use std::path::Path;

@@ -9,6 +9,32 @@ use crate::params::read_source;
 use crate::params::sensor::{ProtocolParams, SensorParams};
 use std::path::{Path, PathBuf};
 
+/// Gathers the input problems of several steps so the command reports them all at once; any
+/// other error stops at once.
+#[derive(Default)]
+struct Gather(Vec<Problem>);
+
+impl Gather {
+    fn take<T>(&mut self, r: Result<T>) -> Result<Option<T>> {
+        match r {
+            Ok(v) => Ok(Some(v)),
+            Err(Error::Input(p)) => {
+                self.0.extend(p.0);
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
+    }
+    /// The value when no step had a problem.
+    fn finish<T>(self, v: Option<T>) -> Result<T> {
+        crate::params::finish(v, self.0)
+    }
+}
+
+fn out_dir(out: &Path) -> Result<()> {
+    crate::export::check_out_dir(out, "--out", "give --out a folder (it is created if missing)")
+}
+
 fn input(file: &str, path: &str, value: impl ToString, message: impl Into<String>) -> Error {
     Error::Input(Problems(vec![Problem { file: file.into(), line: None, path: path.into(), value: value.to_string(), message: message.into() }]))
 }
@@ -24,7 +50,7 @@ pub fn read_all(paths: &[PathBuf], progress: bool) -> Result<Vec<Recording>> {
         match recording::read(p) {
             Ok(r) => recs.push(r),
             Err(Error::Input(ps)) => problems.extend(ps.0),
-            Err(Error::Io { path, source }) => problems.push(Problem {
+            Err(Error::Io { path, err: source }) => problems.push(Problem {
                 file: path.display().to_string(),
                 line: None,
                 path: "(file)".into(),
@@ -53,7 +79,10 @@ pub struct FitSummary {
 }
 
 pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Result<FitSummary> {
-    let recs = read_all(paths, paths.len() > 3)?;
+    let mut g = Gather::default();
+    g.take(out_dir(out))?;
+    let recs = g.take(read_all(paths, paths.len() > 3))?;
+    let recs = g.finish(recs)?;
     let mut opts = Options { method, ..Options::default() };
     opts.pre.mean_filter = filter;
     let (report, prep) = analyze::analyze(&recs, &opts);
@@ -99,7 +128,8 @@ fn analyze_stage(report: &analyze::Report, prep: &analyze::Prepared, method: Met
 
 /// Where the simulated load comes from.
 pub fn preload_from_manifest(path: &Path) -> Result<f64> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| input(&path.display().to_string(), "(file)", "unreadable", format!("{e}: check the path given to --rig (the out/manifest.json a build wrote)")))?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| input(&path.display().to_string(), "(json)", "invalid", format!("not a tipforge manifest: {e}")))?;
     v.get("rigs")
         .and_then(|r| r.as_object())
@@ -112,7 +142,7 @@ pub fn preload_from_manifest(path: &Path) -> Result<f64> {
 /// Cover thickness and mix ratio from a mold file's `[cover]` table, and the dome diameter from
 /// the fingertip file it refers to.
 pub fn cover_from_mold(path: &Path, sensor: &SensorParams) -> Result<Cover> {
-    let src = read_source(path)?;
+    let src = read_named(path, "--cover")?;
     let cover = src.value.get("cover");
     let num = |key: &str, default: f64| cover.and_then(|c| c.get(key)).and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64))).unwrap_or(default);
     let thickness = num("thickness_mm", 1.5);
@@ -142,29 +172,39 @@ pub struct SimSpec<'a> {
     pub out: &'a Path,
 }
 
+/// Reads a parameter file named on the command line; a file that cannot be read is the user's
+/// input problem (exit code 2), named with its option.
+fn read_named(path: &Path, option: &str) -> Result<crate::params::SourceFile> {
+    read_source(path).map_err(|e| match e {
+        Error::Io { path, err } => input(&path.display().to_string(), "(file)", "unreadable", format!("{err}: check the path given to {option}")),
+        e => e,
+    })
+}
+
 fn load_sensor(path: &Path) -> Result<SensorParams> {
-    SensorParams::from_source(&read_source(path)?)
+    SensorParams::from_source(&read_named(path, "--sensor")?)
 }
 
 pub fn load_protocol(path: &Path) -> Result<ProtocolParams> {
-    ProtocolParams::from_source(&read_source(path)?)
+    ProtocolParams::from_source(&read_named(path, "--protocol")?)
 }
 
 /// Simulates `trials` recordings; returns the files written.
 pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
-    let (s, p) = (load_sensor(spec.sensor), load_protocol(spec.protocol));
-    let (s, p) = match (s, p) {
-        (Ok(s), Ok(p)) => (s, p),
-        (Err(Error::Input(mut a)), Err(Error::Input(b))) => {
-            a.0.extend(b.0);
-            return Err(Error::Input(a));
-        }
-        (Err(e), _) | (_, Err(e)) => return Err(e),
+    let mut g = Gather::default();
+    if spec.out.is_dir() {
+        g.take::<()>(Err(input(&spec.out.display().to_string(), "-o", spec.out.display(), "is a folder: give -o the recording's file name, e.g. sim/rec.csv")))?;
+    } else if let Some(dir) = spec.out.parent() {
+        g.take(crate::export::check_out_dir(dir, "-o", "give -o a file name in a folder (the folder is created if missing)"))?;
+    }
+    let s = g.take(load_sensor(spec.sensor))?;
+    let p = g.take(load_protocol(spec.protocol))?;
+    let manifest_preload = match spec.rig {
+        Some(m) => g.take(preload_from_manifest(m).map(Some))?,
+        None => Some(None),
     };
-    let preload = match spec.rig {
-        Some(m) => preload_from_manifest(m)?,
-        None => s.preload_g,
-    };
+    let (s, p, manifest_preload) = g.finish(s.zip(p).zip(manifest_preload).map(|((s, p), m)| (s, p, m)))?;
+    let preload = manifest_preload.unwrap_or(s.preload_g);
     let cover = match spec.cover {
         Some(c) => Some(cover_from_mold(c, &s)?),
         None => None,
@@ -202,16 +242,23 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
 
 /// `tipforge diagnose`: returns the summary lines and the files written.
 pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Path>, rig: Option<&Path>, actuator: bool) -> Result<FitSummary> {
-    let recs = read_all(paths, paths.len() > 3)?;
+    let mut g = Gather::default();
+    g.take(out_dir(out))?;
+    let recs = g.take(read_all(paths, paths.len() > 3))?;
+    let sp = match sensor {
+        Some(p) => g.take(load_sensor(p).map(Some))?,
+        None => Some(None),
+    };
+    let manifest_preload = match rig {
+        Some(m) => g.take(preload_from_manifest(m).map(Some))?,
+        None => Some(None),
+    };
+    let (recs, sp, manifest_preload) = g.finish(recs.zip(sp).zip(manifest_preload).map(|((r, s), m)| (r, s, m)))?;
     let mut opts = Options::default();
     opts.pre.mean_filter = filter;
     opts.pre.handling = !actuator;
-    let sp = match sensor {
-        Some(p) => Some(load_sensor(p)?),
-        None => None,
-    };
-    let preload = match (rig, &sp) {
-        (Some(m), _) => preload_from_manifest(m)?,
+    let preload = match (manifest_preload, &sp) {
+        (Some(m), _) => m,
         (None, Some(s)) => s.preload_g,
         _ => 0.0,
     };

@@ -1,7 +1,8 @@
 //! `saturation`: the response is clipped at a ceiling.
 //!
 //! Signature: a clipped plateau — at least 2 % of all samples within a quarter of the noise of the
-//! largest value (noise piles up at one value there).
+//! largest value (noise piles up at one value there), with at least 5 % of them clearly below it
+//! (4 σ): a response that never leaves one value is not clipped but not responding.
 //! Term: the prediction is clipped at that level; samples within two raw noise σ of it are left out
 //! of the fit, the steps rising into it take τ from the other steps' τ line and an onset fitted
 //! below it, the steps falling from it restart at the clip (in the diagnosis, which owns the step
@@ -18,7 +19,8 @@ pub fn clip_level(series: &[&[f64]], sigma: f64) -> Option<f64> {
     let n: usize = series.iter().map(|v| v.len()).sum();
     let sigma = sigma.max(1e-12);
     let at = series.iter().flat_map(|v| v.iter()).filter(|&&v| v >= vmax - 0.25 * sigma).count();
-    (n > 0 && at as f64 >= 0.02 * n as f64).then_some(vmax)
+    let below = series.iter().flat_map(|v| v.iter()).filter(|&&v| v < vmax - 4.0 * sigma).count();
+    (n > 0 && at as f64 >= 0.02 * n as f64 && below as f64 >= 0.05 * n as f64).then_some(vmax)
 }
 
 /// A ceiling the raw samples touch: their largest value repeats exactly in at least 0.2 % of them
@@ -71,5 +73,13 @@ mod tests {
         assert_eq!(clip_level(&[&ramp], 0.003), None);
         assert_eq!(ceiling(&clipped), Some(1.5));
         assert_eq!(ceiling(&ramp), None);
+        // a response that never moves (a disconnected sensor) is not a clip, noisy or not
+        let flat = vec![0.1; 1000];
+        assert_eq!(clip_level(&[&flat], 0.0), None);
+        let noisy: Vec<f64> = (0..1000).map(|i| 0.1 + 0.003 * ((i * 7919 % 13) as f64 / 6.0 - 1.0)).collect();
+        assert_eq!(clip_level(&[&noisy], 0.003), None);
+        // mostly clipped but leaving it now and then still is one
+        let mostly: Vec<f64> = t.iter().map(|&x| if x < 1.0 { x * 0.3 } else { 1.5 }).collect();
+        assert_eq!(clip_level(&[&mostly], 0.003), Some(1.5));
     }
 }
