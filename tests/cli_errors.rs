@@ -285,3 +285,39 @@ fn building_some_parts_keeps_the_manifest_of_the_others() {
     let v: serde_json::Value = serde_json::from_slice(&after).unwrap();
     assert!(v["parts"].get("rig-plunger").is_some() && v["rigs"].as_object().is_some_and(|r| !r.is_empty()), "{v}");
 }
+
+/// Recordings that cannot be pooled or held out: input errors before any fitting, nothing written.
+#[test]
+fn recordings_that_cannot_be_pooled_are_input_errors() {
+    let d = dir("pool");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let (a, b) = (d.join("a/r.csv"), d.join("b/r.csv"));
+    let c = d.join("p200.csv");
+    assert_eq!(tipforge(&["simulate", "--seed", "3", "-o", &s(&a)]).0, 0);
+    assert_eq!(tipforge(&["simulate", "--seed", "4", "-o", &s(&b)]).0, 0);
+    assert_eq!(tipforge(&["simulate", "--seed", "5", "--protocol", "params/protocol-200g.toml", "-o", &s(&c)]).0, 0);
+    let one = d.join("one-step.csv");
+    let rows: String = (0..2000)
+        .map(|i| format!("{:.2},{:.4},{}\n", i as f64 * 0.01, if i >= 500 { 0.5 } else { 0.0 } + 0.001 * ((i * 37 % 11) as f64 - 5.0), if i >= 500 { 100 } else { 0 }))
+        .collect();
+    std::fs::write(&one, format!("time_s,voltage_v,load_g\n{rows}")).unwrap();
+    let out = s(&d.join("diag"));
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (vec!["fit".into(), s(&a), s(&c), "--out".into(), out.clone()], "must repeat one protocol"),
+        (vec!["diagnose".into(), s(&a), s(&c), "--out".into(), out.clone()], "loading step 1 goes 0 → 200"),
+        (vec!["fit".into(), s(&a), s(&a), "--out".into(), out.clone()], "given twice"),
+        (vec!["diagnose".into(), s(&a), s(&b), "--out".into(), out.clone()], "predictions/r.csv"),
+        (vec!["diagnose".into(), s(&one), "--out".into(), out.clone()], "record the unloading too"),
+    ];
+    for (args, needle) in cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, text) = tipforge(&args);
+        assert_eq!(code, 2, "{args:?}: {text}");
+        assert!(text.contains(needle), "{args:?}: missing {needle:?} in:\n{text}");
+        assert!(!d.join("diag").exists(), "{args:?} wrote output");
+    }
+    // one protocol at a time is fine
+    let (code, text) = tipforge(&["diagnose", &s(&a), "--out", &out]);
+    assert_eq!(code, 0, "{text}");
+    assert!(d.join("diag/predictions/r.csv").exists());
+}

@@ -21,6 +21,12 @@ impl Staged {
     /// Writes every file to `<name>.tmp-tipforge`, then renames them all into place. On any error
     /// the temporaries are removed and nothing in place has changed.
     pub fn commit(self) -> Result<Vec<PathBuf>> {
+        // two files staged for one path would leave the first renamed and the second failing
+        for (i, (path, _)) in self.files.iter().enumerate() {
+            if self.files[..i].iter().any(|(p, _)| p == path) {
+                return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::AlreadyExists, "two outputs of this run have this name; nothing was written")));
+            }
+        }
         let mut temps = Vec::new();
         for (path, bytes) in &self.files {
             if let Some(dir) = path.parent() {

@@ -82,9 +82,12 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Resul
     let mut g = Gather::default();
     g.take(out_dir(out))?;
     let recs = g.take(read_all(paths, paths.len() > 3))?;
-    let recs = g.finish(recs)?;
     let mut opts = Options { method, ..Options::default() };
     opts.pre.mean_filter = filter;
+    if let Some(r) = &recs {
+        g.0.extend(super::pooling::fit_problems(&paths.iter().map(PathBuf::as_path).collect::<Vec<_>>(), r, &opts.pre));
+    }
+    let recs = g.finish(recs)?;
     let (report, prep) = analyze::analyze(&recs, &opts);
     let mut lines = Vec::new();
     for r in &report.recordings {
@@ -253,10 +256,15 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
         Some(m) => g.take(preload_from_manifest(m).map(Some))?,
         None => Some(None),
     };
-    let (recs, sp, manifest_preload) = g.finish(recs.zip(sp).zip(manifest_preload).map(|((r, s), m)| (r, s, m)))?;
     let mut opts = Options::default();
     opts.pre.mean_filter = filter;
     opts.pre.handling = !actuator;
+    if let Some(r) = &recs {
+        let fp = super::pooling::fit_problems(&paths.iter().map(PathBuf::as_path).collect::<Vec<_>>(), r, &opts.pre);
+        let dp = super::pooling::diagnose_problems(r, &opts.pre, fp.is_empty());
+        g.0.extend(fp.into_iter().chain(dp));
+    }
+    let (recs, sp, manifest_preload) = g.finish(recs.zip(sp).zip(manifest_preload).map(|((r, s), m)| (r, s, m)))?;
     let preload = match (manifest_preload, &sp) {
         (Some(m), _) => m,
         (None, Some(s)) => s.preload_g,

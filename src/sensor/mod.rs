@@ -8,6 +8,7 @@ pub mod diagnose_out;
 pub mod fashion;
 pub mod fit;
 pub mod output;
+pub mod pooling;
 pub mod preprocess;
 pub mod recording;
 pub mod sim;
