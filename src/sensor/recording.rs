@@ -140,7 +140,8 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
                 break;
             }
         };
-        let line = line.trim();
+        // a spreadsheet's "CSV UTF-8" starts with a byte-order mark
+        let line = if n == 1 { line.trim_start_matches('\u{feff}') } else { line.as_str() }.trim();
         if line.is_empty() {
             continue;
         }
@@ -154,6 +155,19 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
             continue;
         }
         let cells: Vec<&str> = line.split(',').map(|c| c.trim()).collect();
+        if header.is_none() && cells.len() == 1 {
+            if let Some(sep) = [';', '\t'].into_iter().find(|c| line.contains(*c)) {
+                let shown = if sep == ';' { "`;`" } else { "tabs" };
+                p.at(
+                    n,
+                    "header",
+                    line,
+                    format!("cells are separated by {shown}: tipforge reads comma-separated files with a decimal point; export the recording as CSV with commas"),
+                );
+                header = Some((n, vec![]));
+                continue;
+            }
+        }
         if header.is_none() {
             let names: Vec<String> = cells.iter().map(|c| c.to_ascii_lowercase()).collect();
             let find = |want: &str| names.iter().enumerate().filter(|(_, c)| *c == want).map(|(i, _)| i).collect::<Vec<_>>();
@@ -367,6 +381,15 @@ mod tests {
         assert!((r.response[0] - 1.65).abs() < 1e-12 && (r.response[1] - 0.825).abs() < 1e-12);
         let r = parse_str("time_s,resistance_ohm,input\n0,1000,0\n1,3000,1\n").unwrap();
         assert_eq!(r.unit, "ohm");
+    }
+
+    #[test]
+    fn byte_order_mark_and_crlf_are_read_and_other_separators_named() {
+        let r = parse("a.csv", "\u{feff}time_s,voltage_v,load_g\r\n0,0.1,0\r\n0.01,0.2,100\r\n".as_bytes()).unwrap();
+        assert_eq!((r.len(), r.response[1], r.protocol[1]), (2, 0.2, 100.0));
+        let e = problems("time_s;voltage_v;load_g\n0;0,1;0\n");
+        assert!(e.contains("separated by `;`") && e.matches("t.csv").count() == 1, "{e}");
+        assert!(problems("time_s\tvoltage_v\tload_g\n0\t0.1\t0\n").contains("separated by tabs"));
     }
 
     #[test]
