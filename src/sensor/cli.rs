@@ -200,6 +200,9 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
     } else if let Some(dir) = spec.out.parent() {
         g.take(crate::export::check_out_dir(dir, "-o", "give -o a file name in a folder (the folder is created if missing)"))?;
     }
+    if !(1..=1000).contains(&spec.trials) {
+        g.take::<()>(Err(input("(command line)", "--trials", spec.trials, "the number of recordings to simulate: 1 to 1000")))?;
+    }
     let s = g.take(load_sensor(spec.sensor))?;
     let p = g.take(load_protocol(spec.protocol))?;
     let manifest_preload = match spec.rig {
@@ -215,7 +218,7 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
     let mut st = Staged::default();
     let stem = spec.out.file_stem().and_then(|x| x.to_str()).unwrap_or("rec").to_string();
     let dir = spec.out.parent().unwrap_or(Path::new(""));
-    for k in 0..spec.trials.max(1) {
+    for k in 0..spec.trials {
         let seed = spec.seed + k as u64;
         let (mut rec, truth) = sim::simulate(&s, &p, preload, cover.as_ref(), seed);
         let name = if spec.trials > 1 { format!("{stem}-{}", k + 1) } else { stem.clone() };
