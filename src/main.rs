@@ -58,7 +58,7 @@ enum Cmd {
         #[arg(long)]
         sensor: Option<PathBuf>,
         /// With --sensor: the rig manifest whose plunger mass is the preload.
-        #[arg(long)]
+        #[arg(long, requires = "sensor")]
         rig: Option<PathBuf>,
         /// The loads were applied by a machine, not by hand: look for no handling spikes
         /// (a recording can say so itself with a `# loading=actuator` line).

@@ -256,6 +256,7 @@ fn unusable_paths_on_the_command_line_are_input_errors() {
         (vec!["build", "fingertip-1x"], "did you mean `fingertip-1s`?"),
         (vec!["build", "sensor"], "not a part file"),
         (vec!["simulate", "--trials", "0", "-o", "x.csv"], "--trials = 0"),
+        (vec!["diagnose", &rec_s, "--rig", &missing], "--sensor"),
     ];
     for (args, needle) in cases {
         let (code, text) = tipforge(&args);
