@@ -1,7 +1,7 @@
 //! `tipforge build`: every part file in the params folder → validated params → part → checks →
 //! STL + 3MF + manifest, written atomically. All input problems of all files are reported at once.
 
-use crate::error::{Error, Problem, Problems, Result};
+use crate::error::{Error, Gather, Problem, Problems, Result};
 use crate::export::{manifest, stl, threemf, Staged};
 use crate::params::{self, fingertip::FingertipParams, Kind, SourceFile};
 use crate::part::{Assembly, Part};
@@ -168,15 +168,10 @@ pub fn build_job(job: &Job) -> Result<Built> {
 
 /// The whole build: load, build, check, write.
 pub fn run(opts: &Options) -> Result<Report> {
-    let out_ok = crate::export::check_out_dir(&opts.out_dir, "--out", "give --out a folder (it is created if missing)");
-    let (loaded, skipped) = match (out_ok, load_all(opts)) {
-        (Ok(()), Ok(l)) => l,
-        (Err(Error::Input(mut a)), Err(Error::Input(b))) => {
-            a.0.extend(b.0);
-            return Err(Error::Input(a));
-        }
-        (Err(e), _) | (_, Err(e)) => return Err(e),
-    };
+    let mut g = Gather::default();
+    g.take(crate::export::check_out_dir(&opts.out_dir, "--out", "give --out a folder (it is created if missing)"))?;
+    let loaded = g.take(load_all(opts))?;
+    let (loaded, skipped) = g.finish(loaded)?;
     let mut staged = Staged::default();
     let mut entries = Map::new();
     let mut summaries = Vec::new();

@@ -68,3 +68,28 @@ impl Error {
 }
 
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// Gathers the input problems of several steps so the command reports them all at once; any
+/// other error stops at once.
+#[derive(Default)]
+pub struct Gather(pub Vec<Problem>);
+
+impl Gather {
+    pub fn take<T>(&mut self, r: Result<T>) -> Result<Option<T>> {
+        match r {
+            Ok(v) => Ok(Some(v)),
+            Err(Error::Input(p)) => {
+                self.0.extend(p.0);
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
+    }
+    /// The value when no step had a problem.
+    pub fn finish<T>(self, v: Option<T>) -> Result<T> {
+        match v {
+            Some(v) if self.0.is_empty() => Ok(v),
+            _ => Err(Error::Input(Problems(self.0))),
+        }
+    }
+}

@@ -3,33 +3,11 @@
 use super::analyze::{self, Method, Options};
 use super::recording::{self, Recording};
 use super::sim::{self, Cover};
-use crate::error::{Error, Problem, Problems, Result};
+use crate::error::{Error, Gather, Problem, Problems, Result};
 use crate::export::Staged;
 use crate::params::read_source;
 use crate::params::sensor::{ProtocolParams, SensorParams};
 use std::path::{Path, PathBuf};
-
-/// Gathers the input problems of several steps so the command reports them all at once; any
-/// other error stops at once.
-#[derive(Default)]
-struct Gather(Vec<Problem>);
-
-impl Gather {
-    fn take<T>(&mut self, r: Result<T>) -> Result<Option<T>> {
-        match r {
-            Ok(v) => Ok(Some(v)),
-            Err(Error::Input(p)) => {
-                self.0.extend(p.0);
-                Ok(None)
-            }
-            Err(e) => Err(e),
-        }
-    }
-    /// The value when no step had a problem.
-    fn finish<T>(self, v: Option<T>) -> Result<T> {
-        crate::params::finish(v, self.0)
-    }
-}
 
 fn out_dir(out: &Path) -> Result<()> {
     crate::export::check_out_dir(out, "--out", "give --out a folder (it is created if missing)")
