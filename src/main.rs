@@ -95,6 +95,16 @@ enum MethodArg {
     Both,
 }
 
+/// Print a line of the summary. The files are written before anything is printed, so a reader
+/// that stops early (`tipforge build | head -1`) loses only text: a closed pipe ends the printing
+/// quietly instead of panicking as `println!` does.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($t)*);
+    }};
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
@@ -112,16 +122,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Build { params, out, parts, preview } => {
             let report = tipforge::build::run(&tipforge::build::Options { params_dir: params, out_dir: out, only: parts, preview })?;
             for (f, why) in &report.skipped {
-                println!("skipped {f}: {why}");
+                say!("skipped {f}: {why}");
             }
-            println!("{:<22} {:>10} {:>12} {:>9} {:>9}", "part", "triangles", "volume mm³", "mass g", "time ms");
+            say!("{:<22} {:>10} {:>12} {:>9} {:>9}", "part", "triangles", "volume mm³", "mass g", "time ms");
             for s in &report.summaries {
-                println!("{:<22} {:>10} {:>12.1} {:>9.2} {:>9.1}", s.name, s.triangles, s.volume_mm3, s.mass_g, s.millis);
+                say!("{:<22} {:>10} {:>12.1} {:>9.2} {:>9.1}", s.name, s.triangles, s.volume_mm3, s.mass_g, s.millis);
             }
             for n in &report.notes {
-                println!("{n}");
+                say!("{n}");
             }
-            println!("wrote {} file(s)", report.written.len());
+            say!("wrote {} file(s)", report.written.len());
             Ok(())
         }
         Cmd::Fit { recordings, method, out, no_filter } => {
@@ -133,24 +143,24 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let s = tipforge::sensor::cli::fit(&recordings, m, !no_filter, &out)?;
             for l in &s.lines {
-                println!("{l}");
+                say!("{l}");
             }
-            println!("wrote {} file(s) to {}", s.written.len(), out.display());
+            say!("wrote {} file(s) to {}", s.written.len(), out.display());
             Ok(())
         }
         Cmd::Diagnose { recordings, out, no_filter, sensor, rig, actuator } => {
             let s = tipforge::sensor::cli::diagnose(&recordings, !no_filter, &out, sensor.as_deref(), rig.as_deref(), actuator)?;
             for l in &s.lines {
-                println!("{l}");
+                say!("{l}");
             }
-            println!("wrote {} file(s) to {}", s.written.len(), out.display());
+            say!("wrote {} file(s) to {}", s.written.len(), out.display());
             Ok(())
         }
         Cmd::Simulate { sensor, protocol, rig, cover, seed, trials, o } => {
             let spec = tipforge::sensor::cli::SimSpec { sensor: &sensor, protocol: &protocol, rig: rig.as_deref(), cover: cover.as_deref(), seed, trials, out: &o };
             let files = tipforge::sensor::cli::simulate(&spec)?;
             for f in &files {
-                println!("wrote {}", f.display());
+                say!("wrote {}", f.display());
             }
             Ok(())
         }

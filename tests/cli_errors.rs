@@ -323,3 +323,27 @@ fn recordings_that_cannot_be_pooled_are_input_errors() {
     assert_eq!(code, 0, "{text}");
     assert!(d.join("diag/predictions/r.csv").exists());
 }
+
+#[test]
+fn a_reader_that_stops_early_is_no_panic() {
+    // `tipforge build | head -1`: the summary is printed after the files are written; a closed
+    // pipe used to panic in println! (exit 101). The read end is closed before the child has
+    // done its work, so its first line meets a closed pipe.
+    let d = dir("pipe");
+    std::fs::write(d.join("params/fingertip-1s.toml"), default_text()).unwrap();
+    let mut c = Command::new(env!("CARGO_BIN_EXE_tipforge"))
+        .args(["build", "--params"])
+        .arg(d.join("params"))
+        .arg("--out")
+        .arg(d.join("out"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(c.stdout.take());
+    let o = c.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(d.join("out/fingertip-1s.stl").exists());
+}
