@@ -237,7 +237,8 @@ fn main() {
     }
     // variations at 1σ: hold time, 40 g steps, noise, sample rate, logging offset
     println!("\n| variation (each effect at 1σ) | recall per effect | null false findings |\n|---|---|---|");
-    let variations: Vec<(&str, Box<dyn Fn(&mut SensorParams, &mut ProtocolParams)>)> = vec![
+    type Vary = Box<dyn Fn(&mut SensorParams, &mut ProtocolParams)>;
+    let variations: Vec<(&str, Vary)> = vec![
         ("hold 12 s", Box::new(|_, p| p.hold_s = 12.0)),
         ("40 g steps", Box::new(|_, p| p.weights_g = vec![40.0; 5])),
         ("noise ×2", Box::new(|s, _| s.noise_v *= 2.0)),

@@ -31,11 +31,13 @@ pub struct Summary {
 pub struct Report {
     pub summaries: Vec<Summary>,
     pub written: Vec<PathBuf>,
-    pub skipped: Vec<(String, &'static str)>,
+    pub skipped: Skipped,
     pub notes: Vec<String>,
 }
 
-/// A validated part file, ready to build.
+/// A validated part file, ready to build (a handful per build: the size difference of the
+/// variants does not matter).
+#[allow(clippy::large_enum_variant)]
 pub enum Job {
     Fingertip(FingertipParams),
     Rig(crate::params::rig::RigParams),
@@ -67,8 +69,11 @@ pub fn part_files(dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(v)
 }
 
+/// Files in the params folder that are not part files, each with the reason.
+pub type Skipped = Vec<(String, &'static str)>;
+
 /// Reads and validates every part file, collecting every problem of every file.
-pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Vec<(String, &'static str)>)> {
+pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Skipped)> {
     let mut problems: Vec<Problem> = Vec::new();
     let mut loaded = Vec::new();
     let mut skipped = Vec::new();

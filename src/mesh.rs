@@ -64,10 +64,12 @@ pub struct Solid(pub Manifold);
 
 impl Solid {
     pub fn from_mesh(mesh: &Mesh, what: &str) -> Result<Solid> {
-        let mut mg = MeshGL64::default();
-        mg.num_prop = 3;
-        mg.vert_properties = mesh.vertices.iter().flat_map(|v| v.iter().copied()).collect();
-        mg.tri_verts = mesh.triangles.iter().flat_map(|t| t.iter().map(|&i| i as u64)).collect();
+        let mg = MeshGL64 {
+            num_prop: 3,
+            vert_properties: mesh.vertices.iter().flat_map(|v| v.iter().copied()).collect(),
+            tri_verts: mesh.triangles.iter().flat_map(|t| t.iter().map(|&i| i as u64)).collect(),
+            ..Default::default()
+        };
         let m = Manifold::from_mesh_gl64(&mg);
         let s = Solid(m);
         s.ok(what)?;

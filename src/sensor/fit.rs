@@ -502,8 +502,11 @@ pub struct PaperFit {
     pub grid: usize,
 }
 
+/// Per trial (k, τ, c) and (V_initial, start_s).
+type PerTrial = (Vec<(f64, f64, f64)>, Vec<(f64, f64)>);
+
 /// Per-trial k (Eq. 2) and τ (Eq. 3, c chosen per trial), with each trial's V_initial and start.
-fn paper_per_trial(d: &StepData, weight: f64) -> Option<(Vec<(f64, f64, f64)>, Vec<(f64, f64)>)> {
+fn paper_per_trial(d: &StepData, weight: f64) -> Option<PerTrial> {
     let mut per = Vec::new();
     let mut vinit = Vec::new();
     for tr in &d.trials {

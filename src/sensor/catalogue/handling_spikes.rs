@@ -246,7 +246,7 @@ mod tests {
     fn nothing_on_a_clean_step_or_a_slow_transient() {
         let (t, mut v) = series(0.0, 1.0);
         let st = EdgeStep { t0_s: 10.0, tau_s: 0.6, from_s: 7.0, to_s: 13.0 };
-        assert!(detect(&t, &v, &[st.clone()], 0.003, 1.0).is_empty());
+        assert!(detect(&t, &v, std::slice::from_ref(&st), 0.003, 1.0).is_empty());
         // a slower second relaxation the first-order curve does not have
         for (i, x) in v.iter_mut().enumerate() {
             if t[i] > 10.0 {
