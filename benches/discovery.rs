@@ -147,8 +147,10 @@ fn main() {
     let mut confusion: Vec<(E, String)> = Vec::new();
     // TIPFORGE_DISCOVERY_PAIRS: the pairs only, each on its seeds of the full run
     let pairs_only = std::env::var("TIPFORGE_DISCOVERY_PAIRS").is_ok();
+    // TIPFORGE_DISCOVERY_LEVELS=30,10: other magnitudes (in σ) than the 3, 1 and 0.3
+    let levels: Vec<f64> = std::env::var("TIPFORGE_DISCOVERY_LEVELS").map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect()).unwrap_or_else(|_| vec![3.0, 1.0, 0.3]);
     for &e in effects.iter().filter(|_| !pairs_only) {
-        for k in [3.0, 1.0, 0.3] {
+        for &k in &levels {
             let m = magnitude_for(&s0, &p0, e, k * sigma, top);
             let mut s = s0.clone();
             e.set(&mut s, m, top);

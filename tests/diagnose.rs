@@ -198,3 +198,37 @@ fn improved_model_reaches_the_floor_of_the_same_model_without_the_effect() {
         assert!(ei <= 1.15 * ef && ei < 0.1 * eb, "seed {seed}: improved {ei:.3e}, floor {ef:.3e}, baseline {eb:.3e}");
     }
 }
+
+#[test]
+fn edge_misfit_of_a_large_second_relaxation_is_not_excluded_as_handling_spikes() {
+    // A fifth of each step in an 8 s relaxation: at some step edges the first-order curve leaves
+    // the data for a few tenths of a second, and the spike detectors flag it. Where excluding
+    // those windows makes the held-out prediction worse, they stay in and are reported as located
+    // failures, and the second relaxation is found on the data as given. Designed on a CLI case
+    // (seed 30 000, 22 %); these seeds were not looked at before. Before the check, all six
+    // excluded such windows (improved error to the truth 0.52–0.63 × the baseline's); with it,
+    // those that keep them reach ~0.28 ×. Where exclusion lowers the held-out error a little, the
+    // windows are still excluded (a known limit, BENCHMARKS.md).
+    let mut kept_cases = 0;
+    for seed in [71_000u64, 71_100, 71_200, 71_300, 71_400, 71_500] {
+        let set = move |s: &mut SensorParams| s.effects.second_fraction = 0.22;
+        let d = diagnose(&case(seed, set), &Default::default()).unwrap();
+        let found: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
+        assert_eq!(found.first(), Some(&"second_time_constant"), "seed {seed}: {found:?}");
+        let kept = d.located.iter().filter(|w| w.test == "handling_spikes" && w.statistic.contains("not excluded")).count();
+        match d.findings.iter().find(|f| f.effect == "handling_spikes") {
+            Some(f) => {
+                assert_eq!(kept, 0, "seed {seed}");
+                assert!(f.heldout_rmse_after <= f.heldout_rmse_before, "seed {seed}: exclusion kept though it worsened held-out prediction");
+            }
+            None if kept > 0 => {
+                kept_cases += 1;
+                let (eb, ei) = truth_errors(&d, seed, set);
+                assert!(ei < 0.35 * eb, "seed {seed}: error to the truth {eb} -> {ei}");
+            }
+            None => {}
+        }
+        assert!(d.final_.heldout_rmse < 0.5 * d.baseline.heldout_rmse, "seed {seed}");
+    }
+    assert!(kept_cases >= 2, "edge misfits kept in {kept_cases} of 6 cases");
+}

@@ -6,18 +6,48 @@ use crate::export::Staged;
 use crate::plot::{self, Chart, Series, PALETTE};
 use std::path::Path;
 
+/// Four significant digits (an RMSE in V and one in Ω read alike).
+fn sig4(v: f64) -> String {
+    let digits = (3 - v.abs().max(1e-300).log10().floor() as i32).max(0) as usize;
+    format!("{v:.digits$}")
+}
+
+/// A term's parameters as `name = value` with three significant digits (the JSON keeps every
+/// digit).
+fn plain_params(params: &serde_json::Value) -> String {
+    match params.as_object() {
+        Some(m) => m
+            .iter()
+            .map(|(k, v)| match v.as_f64() {
+                Some(x) => format!("{k} = {}", crate::sensor::catalogue::sig3(x)),
+                None => format!("{k} = {}", v.as_str().map(str::to_string).unwrap_or_else(|| v.to_string())),
+            })
+            .collect::<Vec<_>>()
+            .join(", "),
+        None => params.to_string(),
+    }
+}
+
 /// The terminal summary: one sentence per finding, then the overall result.
 pub fn summary(d: &Diagnosis) -> Vec<String> {
+    let u = &d.unit;
     let mut out = Vec::new();
-    out.push(format!("baseline (first-order steps): held-out RMSE {:.4} {}, fit RMSE {:.4}", d.baseline.heldout_rmse, d.unit, d.baseline.rmse));
+    out.push(format!("baseline (first-order steps): held-out RMSE {} {u}, fit RMSE {} {u}", sig4(d.baseline.heldout_rmse), sig4(d.baseline.rmse)));
     if d.findings.is_empty() {
         out.push("no physics left out was found: every catalogue term failed to improve held-out prediction".into());
     }
     for f in &d.findings {
         let w = f.windows.first().map(|w| format!(" (e.g. {} {:.1}–{:.1} s)", w.recording, w.start_s, w.end_s)).unwrap_or_default();
         out.push(format!(
-            "{} left out [{} confidence]: {}{}; term {}; held-out RMSE {:.4} → {:.4} {}, ΔBIC {:.0}",
-            f.effect, f.confidence, f.explanation, w, f.term.params, f.heldout_rmse_before, f.heldout_rmse_after, d.unit, f.delta_bic
+            "{} left out [{} confidence]: {}{}; term: {}; held-out RMSE {} → {} {u}, ΔBIC {:.0}",
+            f.effect,
+            f.confidence,
+            f.explanation,
+            w,
+            plain_params(&f.term.params),
+            sig4(f.heldout_rmse_before),
+            sig4(f.heldout_rmse_after),
+            f.delta_bic
         ));
     }
     if d.unexplained.flag {
@@ -27,7 +57,9 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
             d.unexplained.evidence.first().cloned().unwrap_or_default()
         ));
     }
-    out.push(format!("improved model: {:?}; held-out RMSE {:.4} → {:.4} {}", d.final_.effects, d.baseline.heldout_rmse, d.final_.heldout_rmse, d.unit));
+    let effects = if d.final_.effects.is_empty() { "the baseline alone".to_string() } else { format!("baseline + {}", d.final_.effects.join(" + ")) };
+    let change = if d.baseline.heldout_rmse > 0.0 { format!(" ({:+.1} %)", 100.0 * (d.final_.heldout_rmse / d.baseline.heldout_rmse - 1.0)) } else { String::new() };
+    out.push(format!("improved model: {effects}; held-out RMSE {} → {} {u}{change}", sig4(d.baseline.heldout_rmse), sig4(d.final_.heldout_rmse)));
     out
 }
 
@@ -84,8 +116,14 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     html += "</table>\n<h2>Decisions</h2>\n<p>A term enters when its held-out improvement has a paired z ≥ 3 over units and it lowers BIC by at least 10; a kept term leaves when, given the others, it no longer passes and the others pass without it.</p>\n<table><tr><th>round</th><th>candidate</th><th>held-out RMSE</th><th>gain</th><th>paired z</th><th>ΔBIC</th><th>accepted</th></tr>\n";
     for dc in &d.decisions {
         html += &format!(
-            "<tr><td>{}</td><td>{}</td><td>{:.5}</td><td>{:+.3}</td><td>{:.2}</td><td>{:.1}</td><td>{}</td></tr>\n",
-            dc.step, dc.candidate, dc.heldout_rmse, dc.gain, dc.z, dc.delta_bic, dc.accepted
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:+.3}</td><td>{:.2}</td><td>{:.1}</td><td>{}</td></tr>\n",
+            dc.step,
+            dc.candidate,
+            sig4(dc.heldout_rmse),
+            dc.gain,
+            dc.z,
+            dc.delta_bic,
+            dc.accepted
         );
     }
     html += "</table>\n<h2>Recordings, models and residuals</h2>\n<p>Shaded: windows where the model failed or a finding applies.</p>\n";
