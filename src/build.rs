@@ -77,16 +77,7 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Skipped)> {
     let mut problems: Vec<Problem> = Vec::new();
     let mut loaded = Vec::new();
     let mut skipped = Vec::new();
-    let files = part_files(&opts.params_dir).map_err(|e| match e {
-        Error::Io { path, err } => Error::Input(Problems(vec![Problem {
-            file: path.display().to_string(),
-            line: None,
-            path: "--params".into(),
-            value: "unreadable".into(),
-            message: format!("{err}: give --params the folder of parameter files (default params)"),
-        }])),
-        e => e,
-    })?;
+    let files = part_files(&opts.params_dir).map_err(|e| e.io_as_input("--params", "give --params the folder of parameter files (default params)"))?;
     let stems: Vec<String> = files.iter().filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(str::to_string)).collect();
     for name in opts.only.iter().filter(|n| !stems.contains(n)) {
         let known: Vec<&str> = stems.iter().map(String::as_str).collect();
@@ -94,13 +85,7 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Skipped)> {
             Some(s) => format!("did you mean `{s}`?"),
             None => format!("the files there are: {}", known.join(", ")),
         };
-        problems.push(Problem {
-            file: opts.params_dir.display().to_string(),
-            line: None,
-            path: "PART".into(),
-            value: name.clone(),
-            message: format!("no {}.toml in {}; {hint}", name, opts.params_dir.display()),
-        });
+        problems.push(Problem::new(opts.params_dir.display().to_string(), "PART", name, format!("no {}.toml in {}; {hint}", name, opts.params_dir.display())));
     }
     for path in files {
         let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("").to_string();

@@ -27,6 +27,13 @@ impl fmt::Display for Problem {
     }
 }
 
+impl Problem {
+    /// A problem not tied to a line of a file: a command-line value, a whole file.
+    pub fn new(file: impl Into<String>, path: impl Into<String>, value: impl ToString, message: impl Into<String>) -> Problem {
+        Problem { file: file.into(), line: None, path: path.into(), value: value.to_string(), message: message.into() }
+    }
+}
+
 /// A list of problems, shown one per line.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Problems(pub Vec<Problem>);
@@ -60,6 +67,19 @@ impl Error {
     }
     pub fn geometry(part: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Geometry { part: part.into(), message: message.into() }
+    }
+    /// One input problem (see [`Problem::new`]).
+    pub fn input(file: impl Into<String>, path: impl Into<String>, value: impl ToString, message: impl Into<String>) -> Self {
+        Error::Input(Problems(vec![Problem::new(file, path, value, message)]))
+    }
+    /// A file or folder the user named that cannot be read is their input problem (exit code 2):
+    /// an I/O error becomes one problem at `path` (the option or "(file)") with the fix; any other
+    /// error is returned as it is.
+    pub fn io_as_input(self, path: &str, fix: &str) -> Self {
+        match self {
+            Error::Io { path: p, err } => Error::input(p.display().to_string(), path, "unreadable", format!("{err}: {fix}")),
+            e => e,
+        }
     }
     /// Whether this error is the user's input (exit code 2) rather than an internal failure.
     pub fn is_input(&self) -> bool {

@@ -65,13 +65,7 @@ pub fn check_out_dir(dir: &Path, option: &str, fix: &str) -> Result<()> {
                 return Ok(());
             }
             let what = if p == dir { "is a file, not a folder".to_string() } else { format!("cannot be created: {} is a file", p.display()) };
-            return Err(Error::Input(crate::error::Problems(vec![crate::error::Problem {
-                file: dir.display().to_string(),
-                line: None,
-                path: option.to_string(),
-                value: dir.display().to_string(),
-                message: format!("{what}; {fix}"),
-            }])));
+            return Err(Error::input(dir.display().to_string(), option, dir.display(), format!("{what}; {fix}")));
         }
         at = p.parent();
     }

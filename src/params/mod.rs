@@ -14,7 +14,7 @@ pub mod sensor;
 
 pub use raw::{fields_of, nearest, part_name, Collector, Schema, SourceFile};
 
-use crate::error::{Error, Problem, Problems, Result};
+use crate::error::{Error, Problem, Result};
 use std::path::Path;
 
 /// What a parameter file describes, from its top-level `kind` key.
@@ -62,8 +62,5 @@ pub fn kind_of(src: &SourceFile) -> std::result::Result<Kind, Problem> {
 
 /// Turns collected problems into the error type, or passes the value on.
 pub fn finish<T>(value: Option<T>, problems: Vec<Problem>) -> Result<T> {
-    match value {
-        Some(v) if problems.is_empty() => Ok(v),
-        _ => Err(Error::Input(Problems(problems))),
-    }
+    crate::error::Gather(problems).finish(value)
 }

@@ -3,7 +3,7 @@
 use super::analyze::{self, Method, Options};
 use super::recording::{self, Recording};
 use super::sim::{self, Cover};
-use crate::error::{Error, Gather, Problem, Problems, Result};
+use crate::error::{Error, Gather, Result};
 use crate::export::Staged;
 use crate::params::read_source;
 use crate::params::sensor::{ProtocolParams, SensorParams};
@@ -13,40 +13,23 @@ fn out_dir(out: &Path) -> Result<()> {
     crate::export::check_out_dir(out, "--out", "give --out a folder (it is created if missing)")
 }
 
-fn input(file: &str, path: &str, value: impl ToString, message: impl Into<String>) -> Error {
-    Error::Input(Problems(vec![Problem { file: file.into(), line: None, path: path.into(), value: value.to_string(), message: message.into() }]))
-}
-
 /// Reads every recording, collecting every file's problems before failing.
 pub fn read_all(paths: &[PathBuf], progress: bool) -> Result<Vec<Recording>> {
     let mut recs = Vec::new();
-    let mut problems = Vec::new();
+    let mut g = Gather::default();
     for (i, p) in paths.iter().enumerate() {
         if progress {
             eprintln!("[{}/{}] reading {}", i + 1, paths.len(), p.display());
         }
-        match recording::read(p) {
-            Ok(r) => recs.push(r),
-            Err(Error::Input(ps)) => problems.extend(ps.0),
-            Err(Error::Io { path, err: source }) => problems.push(Problem {
-                file: path.display().to_string(),
-                line: None,
-                path: "(file)".into(),
-                value: "unreadable".into(),
-                message: format!("{source}: check the path"),
-            }),
-            Err(e) => return Err(e),
-        }
+        recs.extend(g.take(recording::read(p).map_err(|e| e.io_as_input("(file)", "check the path")))?);
     }
-    if !problems.is_empty() {
-        return Err(Error::Input(Problems(problems)));
-    }
+    let recs = g.finish(Some(recs))?;
     if recs.is_empty() {
-        return Err(input("(command line)", "REC", "none", "give at least one recording CSV"));
+        return Err(Error::input("(command line)", "REC", "none", "give at least one recording CSV"));
     }
     let units: Vec<&str> = recs.iter().map(|r| r.unit).collect();
     if units.iter().any(|u| *u != units[0]) {
-        return Err(input(&recs[0].source, "response unit", units.join(", "), "all recordings of one fit must have the same response unit"));
+        return Err(Error::input(&recs[0].source, "response unit", units.join(", "), "all recordings of one fit must have the same response unit"));
     }
     Ok(recs)
 }
@@ -63,7 +46,7 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Resul
     let mut opts = Options { method, ..Options::default() };
     opts.pre.mean_filter = filter;
     if let Some(r) = &recs {
-        g.0.extend(super::pooling::fit_problems(&paths.iter().map(PathBuf::as_path).collect::<Vec<_>>(), r, &opts.pre));
+        g.0.extend(super::pooling::problems(paths, r, &opts.pre, false));
     }
     let recs = g.finish(recs)?;
     let (report, prep) = analyze::analyze(&recs, &opts);
@@ -109,15 +92,14 @@ fn analyze_stage(report: &analyze::Report, prep: &analyze::Prepared, method: Met
 
 /// Where the simulated load comes from.
 pub fn preload_from_manifest(path: &Path) -> Result<f64> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| input(&path.display().to_string(), "(file)", "unreadable", format!("{e}: check the path given to --rig (the out/manifest.json a build wrote)")))?;
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| input(&path.display().to_string(), "(json)", "invalid", format!("not a tipforge manifest: {e}")))?;
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e).io_as_input("(file)", "check the path given to --rig (the out/manifest.json a build wrote)"))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::input(&path.display().to_string(), "(json)", "invalid", format!("not a tipforge manifest: {e}")))?;
     v.get("rigs")
         .and_then(|r| r.as_object())
         .and_then(|o| o.values().next())
         .and_then(|r| r.get("preload_g"))
         .and_then(|p| p.as_f64())
-        .ok_or_else(|| input(&path.display().to_string(), "rigs.*.preload_g", "missing", "the manifest has no rig: run `tipforge build` with params/rig.toml first"))
+        .ok_or_else(|| Error::input(&path.display().to_string(), "rigs.*.preload_g", "missing", "the manifest has no rig: run `tipforge build` with params/rig.toml first"))
 }
 
 /// Cover thickness and mix ratio from a mold file's `[cover]` table, and the dome diameter from
@@ -129,7 +111,7 @@ pub fn cover_from_mold(path: &Path, sensor: &SensorParams) -> Result<Cover> {
     let thickness = num("thickness_mm", 1.5);
     let ratio = num("mix_ratio", 10.0);
     if thickness <= 0.0 || ratio <= 0.0 {
-        return Err(input(&src.file, "cover.thickness_mm / cover.mix_ratio", format!("{thickness} / {ratio}"), "must be positive"));
+        return Err(Error::input(&src.file, "cover.thickness_mm / cover.mix_ratio", format!("{thickness} / {ratio}"), "must be positive"));
     }
     let mut dome = 8.0;
     if let Some(ft) = src.value.get("fingertip").and_then(|v| v.as_str()) {
@@ -156,10 +138,7 @@ pub struct SimSpec<'a> {
 /// Reads a parameter file named on the command line; a file that cannot be read is the user's
 /// input problem (exit code 2), named with its option.
 fn read_named(path: &Path, option: &str) -> Result<crate::params::SourceFile> {
-    read_source(path).map_err(|e| match e {
-        Error::Io { path, err } => input(&path.display().to_string(), "(file)", "unreadable", format!("{err}: check the path given to {option}")),
-        e => e,
-    })
+    read_source(path).map_err(|e| e.io_as_input("(file)", &format!("check the path given to {option}")))
 }
 
 fn load_sensor(path: &Path) -> Result<SensorParams> {
@@ -174,19 +153,16 @@ pub fn load_protocol(path: &Path) -> Result<ProtocolParams> {
 pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
     let mut g = Gather::default();
     if spec.out.is_dir() {
-        g.take::<()>(Err(input(&spec.out.display().to_string(), "-o", spec.out.display(), "is a folder: give -o the recording's file name, e.g. sim/rec.csv")))?;
+        g.take::<()>(Err(Error::input(&spec.out.display().to_string(), "-o", spec.out.display(), "is a folder: give -o the recording's file name, e.g. sim/rec.csv")))?;
     } else if let Some(dir) = spec.out.parent() {
         g.take(crate::export::check_out_dir(dir, "-o", "give -o a file name in a folder (the folder is created if missing)"))?;
     }
     if !(1..=1000).contains(&spec.trials) {
-        g.take::<()>(Err(input("(command line)", "--trials", spec.trials, "the number of recordings to simulate: 1 to 1000")))?;
+        g.take::<()>(Err(Error::input("(command line)", "--trials", spec.trials, "the number of recordings to simulate: 1 to 1000")))?;
     }
     let s = g.take(load_sensor(spec.sensor))?;
     let p = g.take(load_protocol(spec.protocol))?;
-    let manifest_preload = match spec.rig {
-        Some(m) => g.take(preload_from_manifest(m).map(Some))?,
-        None => Some(None),
-    };
+    let manifest_preload = g.take(spec.rig.map(preload_from_manifest).transpose())?;
     let (s, p, manifest_preload) = g.finish(s.zip(p).zip(manifest_preload).map(|((s, p), m)| (s, p, m)))?;
     let preload = manifest_preload.unwrap_or(s.preload_g);
     let cover = match spec.cover {
@@ -229,21 +205,13 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
     let mut g = Gather::default();
     g.take(out_dir(out))?;
     let recs = g.take(read_all(paths, paths.len() > 3))?;
-    let sp = match sensor {
-        Some(p) => g.take(load_sensor(p).map(Some))?,
-        None => Some(None),
-    };
-    let manifest_preload = match rig {
-        Some(m) => g.take(preload_from_manifest(m).map(Some))?,
-        None => Some(None),
-    };
+    let sp = g.take(sensor.map(load_sensor).transpose())?;
+    let manifest_preload = g.take(rig.map(preload_from_manifest).transpose())?;
     let mut opts = Options::default();
     opts.pre.mean_filter = filter;
     opts.pre.handling = !actuator;
     if let Some(r) = &recs {
-        let fp = super::pooling::fit_problems(&paths.iter().map(PathBuf::as_path).collect::<Vec<_>>(), r, &opts.pre);
-        let dp = super::pooling::diagnose_problems(r, &opts.pre, fp.is_empty());
-        g.0.extend(fp.into_iter().chain(dp));
+        g.0.extend(super::pooling::problems(paths, r, &opts.pre, true));
     }
     let (recs, sp, manifest_preload) = g.finish(recs.zip(sp).zip(manifest_preload).map(|((r, s), m)| (r, s, m)))?;
     let preload = match (manifest_preload, &sp) {
@@ -252,14 +220,19 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
         _ => 0.0,
     };
     if sp.is_some() && recs[0].protocol_kind == super::recording::ProtocolKind::Input {
-        return Err(input(&recs[0].source, "protocol column", "input", "--sensor needs the load (load_g or force_n) to simulate the recording; this one logs a unitless input"));
+        return Err(Error::input(
+            &recs[0].source,
+            "protocol column",
+            "input",
+            "--sensor needs the load (load_g or force_n) to simulate the recording; this one logs a unitless input",
+        ));
     }
     if sp.is_some() && recs[0].unit != "V" {
-        return Err(input(&recs[0].source, "response", recs[0].unit, "--sensor compares voltages: give the divider metadata (vcc_v, r_m_ohm, divider) or a voltage column"));
+        return Err(Error::input(&recs[0].source, "response", recs[0].unit, "--sensor compares voltages: give the divider metadata (vcc_v, r_m_ohm, divider) or a voltage column"));
     }
     let sb = sp.as_ref().map(|s| super::diagnose::SimBaseline { sensor: s, preload_g: preload });
     let d = super::diagnose::diagnose_with(&recs, &opts, sb.as_ref())
-        .ok_or_else(|| input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
+        .ok_or_else(|| Error::input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
     let lines = super::diagnose_out::summary(&d);
     let written = super::diagnose_out::stage(&d, out).commit()?;
     Ok(FitSummary { lines, written })

@@ -8,8 +8,7 @@ use std::path::Path;
 
 /// Four significant digits (an RMSE in V and one in Ω read alike).
 fn sig4(v: f64) -> String {
-    let digits = (3 - v.abs().max(1e-300).log10().floor() as i32).max(0) as usize;
-    format!("{v:.digits$}")
+    crate::sensor::catalogue::sig(v, 4)
 }
 
 /// A term's parameters as `name = value` with three significant digits (the JSON keeps every

@@ -7,11 +7,7 @@
 use super::preprocess::{self, Phase, Step};
 use super::recording::Recording;
 use crate::error::Problem;
-use std::path::Path;
-
-fn problem(file: &str, path: &str, value: impl ToString, message: impl Into<String>) -> Problem {
-    Problem { file: file.to_string(), line: None, path: path.to_string(), value: value.to_string(), message: message.into() }
-}
+use std::path::{Path, PathBuf};
 
 fn same(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0)
@@ -30,24 +26,45 @@ fn name(s: &Step) -> String {
     format!("{phase} step {}", s.index + 1)
 }
 
+/// Every pooling problem of `recs` given as `paths`: those of a fit, and with `diagnose` those of
+/// a diagnosis. The steps are segmented once for both.
+pub fn problems(paths: &[PathBuf], recs: &[Recording], pre: &preprocess::Options, diagnose: bool) -> Vec<Problem> {
+    let steps = steps(recs, pre);
+    let paths: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
+    let mut out = fit_problems(&paths, recs, &steps);
+    if diagnose {
+        let protocol_ok = out.is_empty();
+        out.extend(diagnose_problems(recs, &steps, protocol_ok));
+    }
+    out
+}
+
+fn steps(recs: &[Recording], pre: &preprocess::Options) -> Vec<Vec<Step>> {
+    recs.iter().map(|r| preprocess::segment(r, pre).0).collect()
+}
+
 /// Problems with pooling `recs` in a fit: a file given twice, or steps at the same place of the
 /// protocol that change the load between different values.
-pub fn fit_problems(paths: &[&Path], recs: &[Recording], pre: &preprocess::Options) -> Vec<Problem> {
+fn fit_problems(paths: &[&Path], recs: &[Recording], steps: &[Vec<Step>]) -> Vec<Problem> {
     let mut out = Vec::new();
     let canon: Vec<_> = paths.iter().map(|p| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf())).collect();
     for (i, c) in canon.iter().enumerate() {
         if let Some(j) = canon[..i].iter().position(|d| d == c) {
-            out.push(problem(&recs[i].source, "(file)", "given twice", format!("the same recording as argument {} would count as two trials: give each recording once", j + 1)));
+            out.push(Problem::new(
+                &recs[i].source,
+                "(file)",
+                "given twice",
+                format!("the same recording as argument {} would count as two trials: give each recording once", j + 1),
+            ));
         }
     }
-    let steps: Vec<Vec<Step>> = recs.iter().map(|r| preprocess::segment(r, pre).0).collect();
     let unit = recs.first().map(|r| r.protocol_kind.column()).unwrap_or("load");
     for (i, si) in steps.iter().enumerate().skip(1) {
         for s in si {
             let first = steps[..i].iter().enumerate().find_map(|(j, sj)| sj.iter().find(|x| x.phase == s.phase && x.index == s.index).map(|x| (j, x)));
             if let Some((j, x)) = first {
                 if !(same(x.before, s.before) && same(x.after, s.after)) {
-                    out.push(problem(
+                    out.push(Problem::new(
                         &recs[i].source,
                         &format!("{} ({unit})", name(s)),
                         format!("{} → {}", s.before, s.after),
@@ -72,12 +89,12 @@ pub fn fit_problems(paths: &[&Path], recs: &[Recording], pre: &preprocess::Optio
 /// would share a file name, and levels no other data shows — held out, they could only be
 /// guessed (leave one recording out: the level in no other recording; one recording: the level
 /// in no other step, neither reached nor left). One problem per recording, its levels listed.
-pub fn diagnose_problems(recs: &[Recording], pre: &preprocess::Options, protocol_ok: bool) -> Vec<Problem> {
+fn diagnose_problems(recs: &[Recording], steps: &[Vec<Step>], protocol_ok: bool) -> Vec<Problem> {
     let mut out = Vec::new();
     let stems: Vec<String> = recs.iter().map(|r| Path::new(&r.source).file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()).collect();
     for (i, s) in stems.iter().enumerate() {
         if let Some(j) = stems[..i].iter().position(|t| t == s) {
-            out.push(problem(
+            out.push(Problem::new(
                 &recs[i].source,
                 "(file name)",
                 s,
@@ -88,7 +105,6 @@ pub fn diagnose_problems(recs: &[Recording], pre: &preprocess::Options, protocol
     if !protocol_ok {
         return out;
     }
-    let steps: Vec<Vec<Step>> = recs.iter().map(|r| preprocess::segment(r, pre).0).collect();
     let unit = recs.first().map(|r| r.protocol_kind.column()).unwrap_or("load");
     for (i, si) in steps.iter().enumerate() {
         let mut unseen: Vec<f64> = Vec::new();
@@ -109,7 +125,7 @@ pub fn diagnose_problems(recs: &[Recording], pre: &preprocess::Options, protocol
                 "with one recording the diagnosis predicts each step from the other steps, and no other step reaches or leaves these levels: record the unloading too, or give more recordings of the protocol"
             };
             let list = unseen.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ");
-            out.push(problem(&recs[i].source, &format!("levels ({unit})"), list, how));
+            out.push(Problem::new(&recs[i].source, &format!("levels ({unit})"), list, how));
         }
     }
     out
@@ -135,6 +151,14 @@ mod tests {
             protocol_kind: ProtocolKind::LoadG,
             ignored_columns: vec![],
         }
+    }
+
+    fn fit_problems(paths: &[&Path], recs: &[Recording], pre: &preprocess::Options) -> Vec<Problem> {
+        super::fit_problems(paths, recs, &steps(recs, pre))
+    }
+
+    fn diagnose_problems(recs: &[Recording], pre: &preprocess::Options, protocol_ok: bool) -> Vec<Problem> {
+        super::diagnose_problems(recs, &steps(recs, pre), protocol_ok)
     }
 
     fn p<'a>(rs: &[&'a Recording]) -> Vec<&'a Path> {

@@ -141,10 +141,15 @@ pub fn mean_se(r: &[f64]) -> (f64, f64) {
     (mean, sd / effective_n(r).sqrt())
 }
 
+/// `n` significant digits (no exponent; whole numbers keep all their digits).
+pub fn sig(v: f64, n: i32) -> String {
+    let digits = (n - 1 - v.abs().max(1e-300).log10().floor() as i32).max(0) as usize;
+    format!("{v:.digits$}")
+}
+
 /// Three significant digits.
 pub fn sig3(v: f64) -> String {
-    let digits = (2 - v.abs().max(1e-300).log10().floor() as i32).max(0) as usize;
-    format!("{v:.digits$}")
+    sig(v, 3)
 }
 
 /// Test steps: the load goes up to a level `top` at `t0[0]` and down to `after` at `t0[1]`
