@@ -298,7 +298,7 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
     let sh = c.positive(m.socket_height_mm, "mount.socket_height_mm", "5.0");
     let sdp = c.positive(m.socket_depth_mm, "mount.socket_depth_mm", "8.0");
     let sz = c.req(Some(m.socket_center_z_mm.unwrap_or(0.0)), "mount.socket_center_z_mm", "1.0");
-    let hd = c.positive(m.hole_diameter_mm, "mount.hole_diameter_mm", "2.4");
+    let hd = c.at_least_mm(m.hole_diameter_mm, "mount.hole_diameter_mm", super::raw::MIN_HOLE_MM, "the smallest hole a 0.4 mm nozzle prints open", "2.4");
     let holes = m.holes.clone().unwrap_or_default();
     for (i, h) in holes.iter().enumerate() {
         if !h[0].is_finite() || !h[1].is_finite() || h[0].abs() > super::raw::MAX_LENGTH_MM || h[1].abs() > super::raw::MAX_LENGTH_MM {

@@ -47,8 +47,28 @@ impl Kind {
 
 /// Reads a parameter file and parses its TOML (syntax errors carry file:line:column).
 pub fn read_source(path: &Path) -> Result<SourceFile> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    SourceFile::parse(&path.display().to_string(), text)
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let file = path.display().to_string();
+    let text = utf8_text(&file, bytes)?;
+    SourceFile::parse(&file, text)
+}
+
+/// A parameter file's bytes as text; bytes that are not UTF-8 are the user's input problem, named
+/// with the line they stand on.
+fn utf8_text(file: &str, bytes: Vec<u8>) -> Result<String> {
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        let line = 1 + bytes[..at].iter().filter(|&&b| b == b'\n').count();
+        let shown = bytes[at..].iter().take(4).map(|b| format!("{b:#04x}")).collect::<Vec<_>>().join(" ");
+        Error::Input(crate::error::Problems(vec![Problem {
+            file: file.to_string(),
+            line: Some(line),
+            path: "(text)".into(),
+            value: format!("bytes {shown}"),
+            message: "not UTF-8 text: save the parameter file as UTF-8 (TOML files must be UTF-8)".into(),
+        }]))
+    })
 }
 
 /// The file's `kind`, or a problem naming the allowed kinds.
@@ -63,4 +83,15 @@ pub fn kind_of(src: &SourceFile) -> std::result::Result<Kind, Problem> {
 /// Turns collected problems into the error type, or passes the value on.
 pub fn finish<T>(value: Option<T>, problems: Vec<Problem>) -> Result<T> {
     crate::error::Gather(problems).finish(value)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn bytes_that_are_not_utf8_are_an_input_problem_with_their_line() {
+        let e = super::utf8_text("f.toml", b"kind = \"rig\"\n# caf\xe9\n".to_vec()).unwrap_err();
+        assert!(e.is_input());
+        let s = e.to_string();
+        assert!(s.contains("f.toml:2:") && s.contains("0xe9") && s.contains("UTF-8"), "{s}");
+    }
 }

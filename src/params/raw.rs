@@ -253,6 +253,11 @@ pub fn part_name(src: &SourceFile, default_name: &str, problems: &mut Vec<Proble
 /// (and would make the geometry routines run out of memory).
 pub const MAX_LENGTH_MM: f64 = 1000.0;
 
+/// The smallest length tipforge accepts for a positive dimension: a quarter of a 0.2 mm layer.
+pub const MIN_FEATURE_MM: f64 = 0.05;
+/// The smallest hole a 0.4 mm nozzle prints as a hole.
+pub const MIN_HOLE_MM: f64 = 1.0;
+
 /// Collects validation problems for one file; helpers return the value when it is usable.
 pub struct Collector<'a> {
     pub src: &'a SourceFile,
@@ -290,6 +295,20 @@ impl<'a> Collector<'a> {
         let x = self.req(v, path, example)?;
         if x <= 0.0 {
             self.push(path, x, format!("must be greater than 0 (for example {example})"));
+            return None;
+        }
+        if path.ends_with("_mm") && x < MIN_FEATURE_MM {
+            self.push(path, x, format!("below the smallest feature a printer reproduces ({MIN_FEATURE_MM} mm): check the units (millimetres), e.g. {example}"));
+            return None;
+        }
+        Some(x)
+    }
+    /// A required length of at least `min` mm (a hole a nozzle can print round, a wall it can
+    /// print at all); `why` says where the limit comes from.
+    pub fn at_least_mm(&mut self, v: Option<f64>, path: &str, min: f64, why: &str, example: &str) -> Option<f64> {
+        let x = self.positive(v, path, example)?;
+        if x < min {
+            self.push(path, x, format!("below {min} mm, {why}: use at least {min} mm (for example {example})"));
             return None;
         }
         Some(x)

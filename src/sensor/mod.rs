@@ -12,3 +12,4 @@ pub mod pooling;
 pub mod preprocess;
 pub mod recording;
 pub mod sim;
+pub mod usable;

@@ -31,6 +31,10 @@ fn name(s: &Step) -> String {
 pub fn problems(paths: &[PathBuf], recs: &[Recording], pre: &preprocess::Options, diagnose: bool) -> Vec<Problem> {
     let steps = steps(recs, pre);
     let paths: Vec<&Path> = paths.iter().map(PathBuf::as_path).collect();
+    let unusable = super::usable::problems(recs, &steps);
+    if !unusable.is_empty() {
+        return unusable;
+    }
     let mut out = fit_problems(&paths, recs, &steps);
     if diagnose {
         let protocol_ok = out.is_empty();

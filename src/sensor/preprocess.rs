@@ -102,7 +102,10 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
         return (Vec::new(), vec![true; n]);
     }
     let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
-    let half = ((0.25 / dt).round() as usize).max(2);
+    // windows in samples, never wider than the series (a time column in femtoseconds must not
+    // ask for a buffer of 10^300 samples)
+    let samples = |s: f64| ((s / dt).round().min(n as f64) as usize).max(1);
+    let half = samples(0.25).max(2);
     let mut resid = vec![0.0; n];
     let mut buf = Vec::with_capacity(2 * half + 1);
     for i in 0..n {
@@ -125,7 +128,7 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
         let mut j = i;
         let mut peak: f64 = 0.0;
         let mut quiet = 0usize;
-        let gap = ((0.1 / dt).round() as usize).max(1);
+        let gap = samples(0.1);
         while j < n && quiet <= gap {
             if resid[j].abs() > thr {
                 quiet = 0;
@@ -138,7 +141,7 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
         let end = j - quiet;
         let (s, e) = (t[i], t[(end).min(n - 1)]);
         if e - s <= opts.max_spike_s {
-            let pad = ((0.05 / dt).round() as usize).max(1);
+            let pad = samples(0.05);
             for k in i.saturating_sub(pad)..(end + pad).min(n) {
                 mask[k] = false;
             }

@@ -237,6 +237,16 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
                 continue;
             }
         }
+        if let Some(why) = implausible(response_column, vals[1]) {
+            p.at(n, response_column, shown(vals[1]), why);
+            bad_rows += 1;
+            continue;
+        }
+        if protocol_kind != ProtocolKind::Input && vals[2] < 0.0 {
+            p.at(n, protocol_kind.column(), vals[2], "a load on the sensor cannot be negative: log the load the weights or the actuator put on the sensor (0 when unloaded)");
+            bad_rows += 1;
+            continue;
+        }
         t.push(vals[0]);
         r.push(vals[1]);
         g.push(vals[2]);
@@ -246,6 +256,7 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
         Some((hn, _)) if t.is_empty() && p.out.is_empty() => p.at(*hn, "(file)", "no data rows", "the file has a header but no data"),
         Some(_) => {}
     }
+    rate_in_range(&mut p, &t, header.as_ref().map(|h| h.0).unwrap_or(1));
     // contradictory metadata
     if let (Some(fs), true) = (meta.sample_rate_hz, t.len() > 10) {
         let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
@@ -309,6 +320,64 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
         return Err(Error::Input(Problems(p.out)));
     }
     Ok(Recording { source: file.to_string(), meta, time_s: t, response, unit, response_column, protocol: g, protocol_kind, ignored_columns: ignored })
+}
+
+/// The largest response magnitudes tipforge reads, per column: beyond them the column is in
+/// another unit (mV, kΩ written as Ω·10⁹, a scaling gone wrong) and sums of squares overflow.
+pub const MAX_VOLTAGE_V: f64 = 1000.0;
+pub const MAX_RESISTANCE_OHM: f64 = 1e13;
+pub const MAX_ADC_COUNTS: f64 = 4_294_967_295.0;
+
+/// A number as a person reads it: plain when ordinary, in e-notation when huge or tiny.
+fn shown(v: f64) -> String {
+    if v != 0.0 && !(1e-4..1e7).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        v.to_string()
+    }
+}
+
+/// Why a response value cannot be a reading of its column, if it cannot.
+fn implausible(column: &str, v: f64) -> Option<String> {
+    match column {
+        "voltage_v" if v.abs() > MAX_VOLTAGE_V => {
+            Some(format!("a divider voltage beyond ±{MAX_VOLTAGE_V} V: voltage_v must be in volts (convert millivolts; check the export's scaling)"))
+        }
+        "resistance_ohm" if !(0.0..=MAX_RESISTANCE_OHM).contains(&v) => {
+            Some(format!("a resistance must lie between 0 and {MAX_RESISTANCE_OHM:e} ohm: resistance_ohm must be in ohms (convert kΩ or MΩ)"))
+        }
+        "adc_counts" if !(0.0..=MAX_ADC_COUNTS).contains(&v) => Some("ADC counts lie between 0 and 2^32 − 1: check the column".into()),
+        _ => None,
+    }
+}
+
+/// The sample rates tipforge reads (Hz): from a meter logging every 10 s to a 100 kHz DAQ; the
+/// simulator writes 1 to 100 000 Hz.
+pub const RATE_RANGE_HZ: (f64, f64) = (0.1, 100_000.0);
+
+/// The time column's rate, from its median and its mean interval, must lie in [`RATE_RANGE_HZ`]:
+/// a column in the wrong unit (µs, hours) or a corrupted one is named before any fitting.
+fn rate_in_range(p: &mut P, t: &[f64], header_line: usize) {
+    if t.len() < 2 {
+        return;
+    }
+    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    d.sort_by(|a, b| a.total_cmp(b));
+    let median = d[d.len() / 2];
+    let mean = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
+    let (lo, hi) = RATE_RANGE_HZ;
+    for (what, dt) in [("median", median), ("mean", mean)] {
+        let rate = 1.0 / dt;
+        if !(lo..=hi).contains(&rate) {
+            p.at(
+                header_line + 1,
+                "time_s",
+                format!("{what} interval {dt:e} s"),
+                format!("a sample rate of {rate:.3e} Hz is outside {lo} to {hi} Hz: time_s must be in seconds (convert milliseconds or microseconds), increasing by the sampling interval"),
+            );
+            return;
+        }
+    }
 }
 
 fn parse_meta(p: &mut P, n: usize, k: &str, v: &str, m: &mut Meta) {
@@ -429,6 +498,30 @@ mod tests {
         assert!(problems("# adc_bits=40\ntime_s,voltage_v,load_g\n0,1,1\n").contains("1 to 32"));
         assert!(problems("time_s,adc_counts,load_g\n0,1,1\n").contains("needs `# adc_bits=12`"));
         assert!(problems("# adc_bits=10\n# vref_v=3.3\ntime_s,adc_counts,load_g\n0,2000,1\n").contains("outside 0..1023"));
+    }
+
+    #[test]
+    fn time_steps_outside_the_rate_range_are_named() {
+        for dt in [1e-300, 2e-10, 100.0] {
+            let mut s = String::from("time_s,voltage_v,load_g\n");
+            for i in 0..400 {
+                s += &format!("{:e},0.1,{}\n", i as f64 * dt, if i > 200 { 100 } else { 0 });
+            }
+            let e = problems(&s);
+            assert!(e.contains("t.csv:2: time_s") && e.contains("outside 0.1 to 100000 Hz"), "{dt}: {e}");
+        }
+        let ok = parse_str("time_s,voltage_v,load_g\n0,0.1,0\n0.1,0.1,0\n0.2,0.2,100\n").unwrap();
+        assert_eq!(ok.len(), 3);
+    }
+
+    #[test]
+    fn responses_no_sensor_gives_and_negative_loads_are_named_with_their_line() {
+        let e = problems("time_s,voltage_v,load_g\n0,0.1,0\n0.01,1e300,0\n0.02,0.1,-200\n");
+        assert!(e.contains("t.csv:3: voltage_v") && e.contains("in volts"), "{e}");
+        assert!(e.contains("t.csv:4: load_g = -200") && e.contains("cannot be negative"), "{e}");
+        assert!(problems("time_s,resistance_ohm,input\n0,-5,0\n1,3,1\n").contains("t.csv:2: resistance_ohm = -5"));
+        // an actuator's unitless input may be negative
+        assert!(parse_str("time_s,voltage_v,input\n0,0.1,-3\n0.01,0.2,0\n").is_ok());
     }
 
     #[test]

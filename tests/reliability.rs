@@ -1,0 +1,120 @@
+//! Issue 17: defects found by fuzzing, killing and racing tipforge. Each test here failed on the
+//! code before its fix.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("tipforge-rel-{}-{}", name, std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(d.join("params")).unwrap();
+    d
+}
+
+fn tipforge<I, S>(args: I) -> (i32, String)
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<std::ffi::OsStr>,
+{
+    let o = Command::new(env!("CARGO_BIN_EXE_tipforge")).args(args).output().unwrap();
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(!text.contains("panicked"), "{text}");
+    (o.status.code().unwrap_or(-1), text)
+}
+
+fn build(d: &Path) -> (i32, String) {
+    tipforge([OsArg::s("build"), OsArg::s("--params"), OsArg::p(&d.join("params")), OsArg::s("--out"), OsArg::p(&d.join("out"))])
+}
+
+/// A command-line word that may be a path.
+struct OsArg(std::ffi::OsString);
+impl OsArg {
+    fn s(s: &str) -> Self {
+        OsArg(s.into())
+    }
+    fn p(p: &Path) -> Self {
+        OsArg(p.as_os_str().to_owned())
+    }
+}
+impl AsRef<std::ffi::OsStr> for OsArg {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        &self.0
+    }
+}
+
+fn fingertip_text() -> String {
+    std::fs::read_to_string("params/fingertip-1s.toml").unwrap()
+}
+
+#[test]
+fn toml_that_is_not_utf8_is_an_input_error_with_its_line() {
+    let d = dir("utf8");
+    let mut bytes = fingertip_text().into_bytes();
+    let at = bytes.iter().position(|&b| b == b'\n').unwrap() + 1; // start of line 2
+    bytes.splice(at..at, b"# caf\xe9\n".iter().copied());
+    std::fs::write(d.join("params/f.toml"), bytes).unwrap();
+    let (code, text) = build(&d);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("f.toml:2:") && text.contains("UTF-8"), "{text}");
+    assert!(!d.join("out").exists());
+}
+
+#[test]
+fn holes_below_the_smallest_printable_feature_are_refused_with_their_line() {
+    for tiny in ["1e-12", "1e-6", "0.5"] {
+        let d = dir(&format!("hole{tiny}"));
+        let t = fingertip_text();
+        let line = t.lines().position(|l| l.starts_with("hole_diameter_mm")).expect("fixture has hole_diameter_mm") + 1;
+        let t: String = t.lines().map(|l| if l.starts_with("hole_diameter_mm") { format!("hole_diameter_mm = {tiny}\n") } else { format!("{l}\n") }).collect();
+        std::fs::write(d.join("params/f.toml"), t).unwrap();
+        let (code, text) = build(&d);
+        assert_eq!(code, 2, "{tiny}: {text}");
+        assert!(text.contains(&format!("f.toml:{line}: mount.hole_diameter_mm")), "{tiny}: {text}");
+        assert!(text.contains("smallest") && text.contains("mm"), "{tiny}: {text}");
+        assert!(!d.join("out").exists());
+    }
+}
+
+/// A recording of a 0 → 100 g → 0 step with a first-order response, `n` samples at `dt` seconds.
+fn step_csv(n: usize, dt: f64, map: impl Fn(usize, f64, f64) -> (String, String)) -> String {
+    let mut s = String::from("time_s,voltage_v,load_g\n");
+    for i in 0..n {
+        let t = i as f64 * dt;
+        let on = i > n / 3 && i < 2 * n / 3;
+        let v = if on { 1.0 - 0.8 * (-(t - (n / 3) as f64 * dt) / 0.3).exp() } else { 0.2 } + 0.001 * ((i * 7919) % 13) as f64;
+        let (v, g) = map(i, v, if on { 100.0 } else { 0.0 });
+        s += &format!("{},{v},{g}\n", if dt < 1e-100 { format!("{t:e}") } else { t.to_string() });
+    }
+    s
+}
+
+#[test]
+fn degenerate_recordings_are_input_errors_never_nan_or_panic() {
+    let d = dir("degenerate");
+    let cases: Vec<(&str, String, &str)> = vec![
+        ("one-row", "time_s,voltage_v,load_g\n0,0.1,0\n".into(), "at least 10 samples"),
+        ("flat", step_csv(600, 0.01, |_, _, g| ("1.0".into(), g.to_string())), "the response never changes"),
+        ("negative-load", step_csv(600, 0.01, |_, v, g| (v.to_string(), (-g).to_string())), "cannot be negative"),
+        ("huge", step_csv(600, 0.01, |_, v, g| ((v * 1e300).to_string(), g.to_string())), "in volts"),
+        ("femtoseconds", step_csv(400, 1e-300, |_, v, g| (v.to_string(), g.to_string())), "outside 0.1 to 100000 Hz"),
+        ("picoseconds", step_csv(400, 2e-10, |_, v, g| (v.to_string(), g.to_string())), "outside 0.1 to 100000 Hz"),
+    ];
+    for (name, csv, needle) in &cases {
+        let f = d.join(format!("{name}.csv"));
+        std::fs::write(&f, csv).unwrap();
+        for cmd in ["fit", "diagnose"] {
+            let out = d.join(format!("out-{cmd}-{name}"));
+            let (code, text) = tipforge([OsArg::s(cmd), OsArg::p(&f), OsArg::s("--out"), OsArg::p(&out)]);
+            assert_eq!(code, 2, "{cmd} {name}: {text}");
+            assert!(text.contains(needle) && text.contains(&format!("{name}.csv")), "{cmd} {name}: expected {needle:?} in\n{text}");
+            assert!(!text.contains("NaN"), "{cmd} {name}: {text}");
+            assert!(!out.exists(), "{cmd} {name}: a failed run wrote {}", out.display());
+        }
+    }
+    // the same recording made sane fits
+    let f = d.join("sane.csv");
+    std::fs::write(&f, step_csv(600, 0.01, |_, v, g| (v.to_string(), g.to_string()))).unwrap();
+    let (code, text) = tipforge([OsArg::s("fit"), OsArg::p(&f), OsArg::s("--out"), OsArg::p(&d.join("out-sane"))]);
+    assert_eq!(code, 0, "{text}");
+    assert!(!text.contains("NaN"), "{text}");
+}
