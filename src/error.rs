@@ -59,6 +59,10 @@ pub enum Error {
     /// The geometry kernel or a check refused a part built from valid parameters.
     #[error("part {part}: {message}")]
     Geometry { part: String, message: String },
+    /// A result failed a sanity rule of its own stage: a defect in tipforge, never printed as a
+    /// result (exit code 1).
+    #[error("internal error in {stage}: {message} (a defect in tipforge: please report it with the input)")]
+    Internal { stage: &'static str, message: String },
 }
 
 impl Error {

@@ -46,8 +46,11 @@ enum Cmd {
     /// Where simulation and recordings differ: locate the mismatch, name the physics left out,
     /// model it, refit, and show the held-out improvement.
     Diagnose {
+        /// Recording CSV files (format: docs/recording-format.md); two or more are trials of one
+        /// protocol and are held out one by one, a single file is held out step by step.
         #[arg(required = true)]
         recordings: Vec<PathBuf>,
+        /// Output folder (diagnosis.json, diagnosis.md, report.html, residual plots).
         #[arg(long, default_value = "out/diagnosis")]
         out: PathBuf,
         /// Turn off the paper's 10-sample mean filter.
@@ -67,8 +70,10 @@ enum Cmd {
     },
     /// Simulate the rig and sensor: write a recording and its noise-free truth.
     Simulate {
+        /// Sensor and read-out configuration (a TOML file like params/sensor.toml).
         #[arg(long, default_value = "params/sensor.toml")]
         sensor: PathBuf,
+        /// Loading protocol: the weights stacked and removed, and their hold times.
         #[arg(long, default_value = "params/protocol-1000g.toml")]
         protocol: PathBuf,
         /// out/manifest.json of a build with the rig: the plunger's mass is the preload.
@@ -77,14 +82,15 @@ enum Cmd {
         /// A mold parameter file: simulate the sensor under its PDMS cover.
         #[arg(long)]
         cover: Option<PathBuf>,
+        /// Seed of the noise and the handling (same seed, same file).
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Number of trials (files NAME-1.csv …, seeds seed, seed+1, …).
         #[arg(long, default_value_t = 1)]
         trials: usize,
         /// Output recording (the truth goes to truth/NAME.json and truth/NAME.csv beside it).
-        #[arg(short, long)]
-        o: PathBuf,
+        #[arg(short = 'o', long = "out", value_name = "FILE.csv")]
+        out: PathBuf,
     },
 }
 
@@ -156,8 +162,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             say!("wrote {} file(s) to {}", s.written.len(), out.display());
             Ok(())
         }
-        Cmd::Simulate { sensor, protocol, rig, cover, seed, trials, o } => {
-            let spec = tipforge::sensor::cli::SimSpec { sensor: &sensor, protocol: &protocol, rig: rig.as_deref(), cover: cover.as_deref(), seed, trials, out: &o };
+        Cmd::Simulate { sensor, protocol, rig, cover, seed, trials, out } => {
+            let spec = tipforge::sensor::cli::SimSpec { sensor: &sensor, protocol: &protocol, rig: rig.as_deref(), cover: cover.as_deref(), seed, trials, out: &out };
             let files = tipforge::sensor::cli::simulate(&spec)?;
             for f in &files {
                 say!("wrote {}", f.display());

@@ -233,6 +233,7 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
     let sb = sp.as_ref().map(|s| super::diagnose::SimBaseline { sensor: s, preload_g: preload });
     let d = super::diagnose::diagnose_with(&recs, &opts, sb.as_ref())
         .ok_or_else(|| Error::input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
+    super::heldout_guard::check(&d, &recs)?;
     let lines = super::diagnose_out::summary(&d);
     let written = super::diagnose_out::stage(&d, out).commit()?;
     Ok(FitSummary { lines, written })

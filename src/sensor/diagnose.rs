@@ -613,6 +613,11 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
             // predict it with the step's fitted τ
             if cfg.tau_free && !d.prior {
                 xk[d.n_levels() + tr.segs[s].key] = 0.0;
+                // so has its onset shift, when its onset is refitted: its column is zero on every
+                // training row, and the solver's value for it is whatever the penalty left
+                if let Some(q) = d.refit_onset.iter().position(|&k| k == (0, s)) {
+                    xk[d.n_levels() + d.n_keys + q] = 0.0;
+                }
             }
             for j in 0..tr.t.len() {
                 if tr.t[j] >= a && tr.t[j] < b {

@@ -7,6 +7,7 @@ pub mod diagnose;
 pub mod diagnose_out;
 pub mod fashion;
 pub mod fit;
+pub mod heldout_guard;
 pub mod output;
 pub mod pooling;
 pub mod preprocess;
