@@ -209,6 +209,9 @@ pub fn run(opts: &Options) -> Result<Report> {
         let msg = violations.iter().map(|v| format!("  {v}")).collect::<Vec<_>>().join("\n");
         return Err(Error::geometry("build", format!("checks failed, nothing written:\n{msg}")));
     }
+    // from here to the commit the folder is this run's: a concurrent build waits, so the manifest
+    // read below is the one this commit replaces
+    let lock = crate::export::outdir::OutLock::acquire(&opts.out_dir)?;
     if !opts.only.is_empty() {
         // a build of some parts keeps the manifest's entries of the others, whose files stay in out/
         if let Some(old) = std::fs::read(opts.out_dir.join("manifest.json")).ok().and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok()) {
@@ -216,6 +219,6 @@ pub fn run(opts: &Options) -> Result<Report> {
         }
     }
     staged.add(opts.out_dir.join("manifest.json"), manifest::document(entries, sections));
-    let written = staged.commit()?;
+    let written = staged.commit(&lock)?;
     Ok(Report { summaries, written, skipped, notes })
 }

@@ -50,7 +50,7 @@ enum Cmd {
         /// protocol and are held out one by one, a single file is held out step by step.
         #[arg(required = true)]
         recordings: Vec<PathBuf>,
-        /// Output folder (diagnosis.json, diagnosis.md, report.html, residual plots).
+        /// Output folder (diagnosis.json, report.html, plots/, predictions/).
         #[arg(long, default_value = "out/diagnosis")]
         out: PathBuf,
         /// Turn off the paper's 10-sample mean filter.

@@ -118,3 +118,31 @@ fn degenerate_recordings_are_input_errors_never_nan_or_panic() {
     assert_eq!(code, 0, "{text}");
     assert!(!text.contains("NaN"), "{text}");
 }
+
+/// Issue 17, defect 9: help and messages say what is meant.
+#[test]
+fn help_and_messages_name_their_units_and_causes() {
+    let (code, text) = tipforge(["simulate", "-h"]);
+    assert_eq!(code, 0);
+    assert!(text.contains("-o, --out <FILE.csv>") && !text.contains("--o <O>"), "{text}");
+    let (_, text) = tipforge(["diagnose", "-h"]);
+    // the argument's line carries a description after its name
+    let described = |arg: &str| text.lines().find(|l| l.trim_start().starts_with(arg)).is_some_and(|l| l.split_whitespace().count() > 4);
+    assert!(described("<RECORDINGS>") && described("--out"), "{text}");
+
+    let d = dir("messages");
+    let rec = d.join("rec.csv");
+    let (code, text) = tipforge([OsArg::s("simulate"), OsArg::s("--protocol"), OsArg::s("params/protocol-200g.toml"), OsArg::s("-o"), OsArg::p(&rec)]);
+    assert_eq!(code, 0, "{text}");
+    // the recording has the divider metadata: the paper method's missing fashion curves are not
+    // blamed on it
+    let (code, text) = tipforge([OsArg::s("fit"), OsArg::p(&rec), OsArg::s("--method"), OsArg::s("paper"), OsArg::s("--out"), OsArg::p(&d.join("fit"))]);
+    assert_eq!(code, 0, "{text}");
+    assert!(!text.contains("need the divider metadata") && text.contains("--method lsq or --method both"), "{text}");
+    // the noise is said before and after the filter; k carries its unit in the console and table
+    assert!(text.contains("V raw,") && text.contains("after the 10-sample mean filter"), "{text}");
+    assert!(text.contains("paper k = ") && text.contains("V per kg"), "{text}");
+    let md = std::fs::read_to_string(d.join("fit").join("table-paper.md")).unwrap();
+    assert!(md.lines().next().unwrap().contains("| k (V per kg) |"), "{md}");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -35,7 +35,13 @@ pub struct RecordingInfo {
     pub samples: usize,
     pub sample_rate_hz: f64,
     pub unit: String,
+    /// Noise σ of the samples as fitted: after the mean filter when it is on (`filter_block`
+    /// samples per point), else of the raw samples.
     pub noise_sigma: f64,
+    /// Noise σ of the raw samples, before any filter (what a simulator's σ describes).
+    pub noise_sigma_raw: f64,
+    /// Samples per fitted point (10 with the paper's filter, else 1).
+    pub filter_block: usize,
     pub steps: usize,
     pub spikes: Vec<SpikeWindow>,
     pub notes: Vec<String>,
@@ -125,6 +131,8 @@ fn prepare_with(recs: &[Recording], opts: &Options, extra: &[Vec<SpikeWindow>]) 
             sample_rate_hz: r.sample_rate_hz(),
             unit: r.unit.to_string(),
             noise_sigma: s.sigma,
+            noise_sigma_raw: preprocess::noise_sigma(&r.response),
+            filter_block: if o.mean_filter { o.block.max(1) } else { 1 },
             steps: steps.len(),
             spikes,
             notes,
@@ -253,7 +261,8 @@ fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepRep
 
 fn finish_report(recs: &[Recording], opts: &Options, prep: Prepared, infos: Vec<RecordingInfo>, steps: Vec<StepReport>) -> (Report, Prepared) {
     let kind = recs.first().map(|r| r.protocol_kind).unwrap_or(ProtocolKind::Input);
-    let mut notes = Vec::new();
+    // the paper method's τ where it is only a bound (its Eq. 3 optimum on the c grid's edge)
+    let mut notes: Vec<String> = steps.iter().flat_map(|s| s.paper.iter().flat_map(move |p| p.edge_notes.iter().map(move |n| format!("paper method, {:?} step {}: {n}", s.phase, s.index + 1)))).collect();
     let fashion = match recs.first().and_then(readout) {
         Some(ro) if opts.method != Method::Paper => {
             let mut levels = Vec::new();
@@ -278,7 +287,11 @@ fn finish_report(recs: &[Recording], opts: &Options, prep: Prepared, infos: Vec<
                 fashion::fit(ro, &levels, &taus)
             }
         }
-        _ => {
+        Some(_) => {
+            notes.push("fashion curves are fitted to the lsq levels: run with --method lsq or --method both to get them".into());
+            None
+        }
+        None => {
             notes.push("fashion curves need the divider metadata (vcc_v, r_m_ohm, divider) or a resistance recording".into());
             None
         }
@@ -292,9 +305,9 @@ fn finish_report(recs: &[Recording], opts: &Options, prep: Prepared, infos: Vec<
 pub fn table(report: &Report, paper: bool) -> (String, String) {
     let mut csv = String::from("phase,step,load_before,load_after,weight,k,tau_s,eq4_error\n");
     let mut md = format!(
-        "| phase | step | load | weight ({}) | k | τ (s) | Eq. 4 error ({}) |\n|---|---|---|---|---|---|---|\n",
-        report.steps.first().map(|s| s.weight_unit).unwrap_or("kg"),
-        report.unit
+        "| phase | step | load | weight ({w}) | k ({u} per {w}) | τ (s) | Eq. 4 error ({u}) |\n|---|---|---|---|---|---|---|\n",
+        w = report.steps.first().map(|s| s.weight_unit).unwrap_or("kg"),
+        u = report.unit
     );
     for s in &report.steps {
         let row = if paper {

@@ -53,14 +53,17 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Resul
     let mut lines = Vec::new();
     for r in &report.recordings {
         lines.push(format!(
-            "{}: {} samples at {:.2} Hz, {} steps, {} handling spike(s) excluded, noise {:.4} {}",
+            "{}: {} samples at {:.2} Hz, {} steps, {} handling spike(s) excluded, noise {}",
             r.source,
             r.samples,
             r.sample_rate_hz,
             r.steps,
             r.spikes.len(),
-            r.noise_sigma,
-            r.unit
+            if r.filter_block > 1 {
+                format!("{:.4} {u} raw, {:.4} {u} after the {}-sample mean filter", r.noise_sigma_raw, r.noise_sigma, r.filter_block, u = r.unit)
+            } else {
+                format!("{:.4} {} (raw samples, no filter)", r.noise_sigma_raw, r.unit)
+            }
         ));
         for n in &r.notes {
             lines.push(format!("  note: {n}"));
@@ -69,10 +72,18 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Resul
     for s in &report.steps {
         let mut l = format!("{:?} step {} ({} → {}), {} trial(s):", s.phase, s.index + 1, s.before, s.after, s.trials);
         if let Some(f) = &s.lsq {
-            l += &format!(" lsq k = {:.4} ± {:.4} {}, τ = {:.3} ± {:.3} s, Eq.4 {:.4};", f.k, f.se_k, report.unit, f.tau_s, f.se_tau_s, s.lsq_eq4.unwrap_or(f64::NAN));
+            l += &format!(" lsq k = {:.4} ± {:.4} {}", f.k, f.se_k, report.unit);
+            if let Some(kw) = s.lsq_k_per_weight {
+                l += &format!(" ({:.4} {} per {})", kw, report.unit, s.weight_unit);
+            }
+            l += &format!(", τ = {:.3} ± {:.3} s", f.tau_s, f.se_tau_s);
+            if let Some(e) = s.lsq_eq4 {
+                l += &format!(", Eq.4 {e:.4}");
+            }
+            l += ";";
         }
         if let Some(p) = &s.paper {
-            l += &format!(" paper k = {:.4} per {}, τ = {:.3} s, Eq.4 {:.4}", p.k, s.weight_unit, p.tau_s, p.eq4);
+            l += &format!(" paper k = {:.4} {} per {}, τ = {:.3} s, Eq.4 {:.4}", p.k, report.unit, s.weight_unit, p.tau_s, p.eq4);
         }
         lines.push(l);
     }
@@ -87,7 +98,8 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Resul
 }
 
 fn analyze_stage(report: &analyze::Report, prep: &analyze::Prepared, method: Method, out: &Path) -> Result<Vec<PathBuf>> {
-    super::output::stage(report, prep, method, out).commit()
+    let lock = crate::export::outdir::OutLock::acquire(out)?;
+    super::output::stage(report, prep, method, out).commit(&lock)
 }
 
 /// Where the simulated load comes from.
@@ -197,7 +209,8 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
         }
         st.add(dir.join("truth").join(format!("{name}.csv")), csv.into_bytes());
     }
-    st.commit()
+    let lock = crate::export::outdir::OutLock::acquire(dir)?;
+    st.commit(&lock)
 }
 
 /// `tipforge diagnose`: returns the summary lines and the files written.
@@ -235,6 +248,7 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
         .ok_or_else(|| Error::input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
     super::heldout_guard::check(&d, &recs)?;
     let lines = super::diagnose_out::summary(&d);
-    let written = super::diagnose_out::stage(&d, out).commit()?;
+    let lock = crate::export::outdir::OutLock::acquire(out)?;
+    let written = super::diagnose_out::stage(&d, out).commit(&lock)?;
     Ok(FitSummary { lines, written })
 }

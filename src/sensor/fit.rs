@@ -500,33 +500,59 @@ pub struct PaperFit {
     pub weight: f64,
     pub per_trial: Vec<(f64, f64, f64)>,
     pub grid: usize,
+    /// Trials whose Eq. 3 optimum lies on an edge of the c grid (a warning: τ is a bound there).
+    pub edge_notes: Vec<String>,
 }
 
 /// Per trial (k, τ, c) and (V_initial, start_s).
 type PerTrial = (Vec<(f64, f64, f64)>, Vec<(f64, f64)>);
 
-/// Per-trial k (Eq. 2) and τ (Eq. 3, c chosen per trial), with each trial's V_initial and start.
-fn paper_per_trial(d: &StepData, weight: f64) -> Option<PerTrial> {
+/// Points of the per-trial c grid of Eq. 3 (log-spaced).
+pub const C_GRID: usize = 400;
+
+/// The c grid of Eq. 3 (τ = c · 0.637 · T) for a trial of duration `t_total` sampled every `dt`:
+/// log-spaced from the τ of one sample interval to c = 1, so the data, not the grid, set the
+/// smallest τ (a linear grid from c = 1/200 made τ ≥ 0.005 · 0.637 · T: 1.25 s on a 394 s hold).
+fn c_grid(t_total: f64, dt: f64) -> Vec<f64> {
+    let hi = 1.0f64;
+    let lo = (dt / (0.637 * t_total)).clamp(1e-9, hi);
+    if lo >= hi {
+        return vec![hi];
+    }
+    (0..C_GRID).map(|i| lo * (hi / lo).powf(i as f64 / (C_GRID - 1) as f64)).collect()
+}
+
+/// Per-trial k (Eq. 2) and τ (Eq. 3, c chosen per trial), with each trial's V_initial and start,
+/// and a note for each trial whose best c lies on an edge of its grid.
+fn paper_per_trial(d: &StepData, weight: f64) -> Option<(PerTrial, Vec<String>)> {
     let mut per = Vec::new();
     let mut vinit = Vec::new();
+    let mut notes = Vec::new();
     for tr in &d.trials {
         let s = tr.t.iter().position(|&x| x >= tr.t_log)?;
         let (vi, vf) = (tr.v[s], tr.v[tr.v.len() - 1]);
         let k = (vf - vi) / weight;
         let t_total = tr.t[tr.t.len() - 1] - tr.t[s];
-        let mut best = (f64::INFINITY, 1.0);
-        for ci in 1..=200 {
-            let c = ci as f64 / 200.0;
+        let dt = if tr.t.len() - s > 1 { t_total / (tr.t.len() - s - 1) as f64 } else { t_total };
+        let grid = c_grid(t_total, dt);
+        let mut best = (f64::INFINITY, 0usize);
+        for (ci, &c) in grid.iter().enumerate() {
             let tau = c * 0.637 * t_total;
             let e: f64 = (s..tr.t.len()).map(|q| (tr.v[q] - vi - k * weight * (1.0 - (-(tr.t[q] - tr.t[s]) / tau).exp())).powi(2)).sum();
             if e < best.0 {
-                best = (e, c);
+                best = (e, ci);
             }
         }
-        per.push((k, best.1 * 0.637 * t_total, best.1));
+        let c = grid[best.1];
+        if grid.len() > 1 && best.1 == 0 {
+            notes.push(format!("{}: Eq. 3's best τ is the grid's smallest, one sample interval ({:.4} s): the rise is faster than the sampling resolves", tr.recording, c * 0.637 * t_total));
+        } else if grid.len() > 1 && best.1 == grid.len() - 1 {
+            notes.push(format!("{}: Eq. 3's best τ is the grid's largest, c = 1 ({:.3} s): the response has not settled within the hold", tr.recording, c * 0.637 * t_total));
+        }
+        per.push((k, c * 0.637 * t_total, c));
         vinit.push((vi, tr.t[s]));
     }
-    Some((per, vinit))
+    Some(((per, vinit), notes))
 }
 
 fn rect(per: &[(f64, f64, f64)]) -> (f64, f64, f64, f64) {
@@ -548,7 +574,7 @@ fn at(lo: f64, hi: f64, i: usize, n: usize) -> f64 {
 /// samples per τ (the result is the same as evaluating Eq. 4 at every grid point; see
 /// [`paper_as_described`], which the tests compare against).
 pub fn paper(d: &StepData, weight: f64, grid: usize) -> Option<PaperFit> {
-    let (per, vinit) = paper_per_trial(d, weight)?;
+    let ((per, vinit), edge_notes) = paper_per_trial(d, weight)?;
     let (kmin, kmax, tmin, tmax) = rect(&per);
     let starts: Vec<usize> = d.trials.iter().map(|tr| tr.t.iter().position(|&x| x >= tr.t_log).unwrap_or(0)).collect();
     let j = d.trials.iter().zip(&starts).map(|(tr, s)| tr.t.len() - s).min().unwrap_or(0);
@@ -575,13 +601,13 @@ pub fn paper(d: &StepData, weight: f64, grid: usize) -> Option<PaperFit> {
             }
         }
     }
-    Some(PaperFit { k: best.1, tau_s: best.2, eq4: best.0, weight, per_trial: per, grid })
+    Some(PaperFit { k: best.1, tau_s: best.2, eq4: best.0, weight, per_trial: per, grid, edge_notes })
 }
 
 /// The paper's search exactly as described: Eq. 4 evaluated at every (k, τ) of the grid. The
 /// benchmark's reference for the paper's cost.
 pub fn paper_as_described(d: &StepData, weight: f64, grid: usize) -> Option<PaperFit> {
-    let (per, vinit) = paper_per_trial(d, weight)?;
+    let ((per, vinit), edge_notes) = paper_per_trial(d, weight)?;
     let (kmin, kmax, tmin, tmax) = rect(&per);
     let mut best = (f64::INFINITY, per[0].0, per[0].1);
     for a in 0..grid {
@@ -594,7 +620,7 @@ pub fn paper_as_described(d: &StepData, weight: f64, grid: usize) -> Option<Pape
             }
         }
     }
-    Some(PaperFit { k: best.1, tau_s: best.2, eq4: best.0, weight, per_trial: per, grid })
+    Some(PaperFit { k: best.1, tau_s: best.2, eq4: best.0, weight, per_trial: per, grid, edge_notes })
 }
 
 #[cfg(test)]
@@ -642,6 +668,41 @@ mod tests {
         let (a, b) = (paper(&d, 0.2, 40).unwrap(), paper_as_described(&d, 0.2, 40).unwrap());
         assert_eq!((a.k, a.tau_s), (b.k, b.tau_s));
         assert!((a.eq4 - b.eq4).abs() < 1e-12);
+    }
+
+    /// Issue 17, defect 5: with long holds the c grid from 1/200 gave τ ≥ 0.005 · 0.637 · T
+    /// (1.25 s for a 394 s hold, whatever the truth), silently.
+    #[test]
+    fn papers_tau_is_not_floored_by_a_long_hold() {
+        for &tau in &[0.15, 0.64, 2.03] {
+            let trials = (0..3)
+                .map(|i| {
+                    let t: Vec<f64> = (0..40000).map(|j| j as f64 * 0.01).collect();
+                    let v: Vec<f64> = t.iter().map(|&x| 0.2 + if x < 5.0 { 0.0 } else { 0.6 * (1.0 - (-(x - 5.0) / tau).exp()) }).collect();
+                    let post = t.iter().position(|&x| x >= 5.02).unwrap();
+                    let uniform_dt = uniform(&t[post..]);
+                    Trial { recording: format!("r{i}"), t_on: t[post], t, v, t_log: 5.0, post, pre_end: post - 3, uniform_dt, t_end: 399.0 }
+                })
+                .collect();
+            let d = StepData { step: Step { phase: Phase::Loading, index: 0, t_log: 5.0, t_end: 399.0, before: 0.0, after: 200.0 }, trials };
+            let p = paper(&d, 0.2, 60).unwrap();
+            assert!((p.tau_s / tau - 1.0).abs() < 0.05, "truth {tau} s, paper {} s", p.tau_s);
+            assert!(p.edge_notes.is_empty(), "{:?}", p.edge_notes);
+        }
+    }
+
+    #[test]
+    fn a_rise_within_one_sample_is_flagged_on_the_grids_edge() {
+        let trials = vec![{
+            let t: Vec<f64> = (0..2000).map(|j| j as f64 * 0.1).collect();
+            let v: Vec<f64> = t.iter().map(|&x| if x < 5.0 { 0.2 } else { 0.8 }).collect();
+            let post = t.iter().position(|&x| x >= 5.0).unwrap();
+            let uniform_dt = uniform(&t[post..]);
+            Trial { recording: "r".into(), t_on: t[post], t, v, t_log: 5.0, post, pre_end: post - 3, uniform_dt, t_end: 199.0 }
+        }];
+        let d = StepData { step: Step { phase: Phase::Loading, index: 0, t_log: 5.0, t_end: 199.0, before: 0.0, after: 1000.0 }, trials };
+        let p = paper(&d, 1.0, 40).unwrap();
+        assert!(p.edge_notes.iter().any(|n| n.contains("smallest")), "{:?}", p.edge_notes);
     }
 
     #[test]
