@@ -1,8 +1,9 @@
-//! Recordings: one trial per CSV file (format in docs/recording-format.md). Streams the file line
-//! by line; every problem is reported with file:line and the fix, never a panic.
+//! Recordings: one trial per CSV file (format in docs/recording-format.md). Streams the file
+//! through the `csv` crate; every problem is reported with file:line and the fix, never a panic.
 
 use crate::error::{Error, Problem, Problems, Result};
 use std::collections::BTreeMap;
+use super::csv_source::CommentTee;
 use std::io::BufRead;
 use std::path::Path;
 
@@ -71,8 +72,23 @@ pub struct Recording {
     pub ignored_columns: Vec<String>,
 }
 
-const RESPONSES: [&str; 3] = ["voltage_v", "adc_counts", "resistance_ohm"];
-const PROTOCOLS: [(&str, ProtocolKind); 3] = [("load_g", ProtocolKind::LoadG), ("force_n", ProtocolKind::ForceN), ("input", ProtocolKind::Input)];
+/// Time columns read, with the factor to seconds.
+const TIMES: [(&str, f64); 3] = [("time_s", 1.0), ("time_ms", 1e-3), ("time_us", 1e-6)];
+/// Response columns read: the name in the file, the column it is, the factor to that column's unit.
+const RESPONSES: [(&str, &str, f64); 5] =
+    [("voltage_v", "voltage_v", 1.0), ("voltage_mv", "voltage_v", 1e-3), ("adc_counts", "adc_counts", 1.0), ("resistance_ohm", "resistance_ohm", 1.0), ("resistance_kohm", "resistance_ohm", 1e3)];
+/// Protocol columns read: the name in the file, what it is, the factor to that kind's unit.
+const PROTOCOLS: [(&str, ProtocolKind, f64); 5] = [
+    ("load_g", ProtocolKind::LoadG, 1.0),
+    ("load_kg", ProtocolKind::LoadG, 1e3),
+    ("force_n", ProtocolKind::ForceN, 1.0),
+    ("force_kgf", ProtocolKind::ForceN, 9.80665),
+    ("input", ProtocolKind::Input, 1.0),
+];
+
+fn listed<T>(table: &[T], name: impl Fn(&T) -> &str) -> String {
+    table.iter().map(|x| name(x).to_string()).collect::<Vec<_>>().join(", ")
+}
 
 impl Recording {
     pub fn len(&self) -> usize {
@@ -119,148 +135,196 @@ impl P<'_> {
     }
 }
 
-/// Parses a recording from any reader (streamed, line by line).
+/// One column the recording is read from: its position, its name in the file, the factor that
+/// converts it to tipforge's unit.
+#[derive(Clone, Copy)]
+struct Col {
+    at: usize,
+    name: &'static str,
+    factor: f64,
+}
+
+/// The three columns read, and how many cells a row has.
+struct Columns {
+    time: Col,
+    response: Col,
+    response_column: &'static str,
+    protocol: Col,
+    protocol_kind: ProtocolKind,
+    ncols: usize,
+    ignored: Vec<String>,
+}
+
+/// The rows read so far.
+#[derive(Default)]
+struct Rows {
+    t: Vec<f64>,
+    r: Vec<f64>,
+    g: Vec<f64>,
+    bad: usize,
+}
+
+/// Parses a recording from any reader: streamed through the `csv` crate (quoted cells and headers
+/// as spreadsheets write them), with the `#` lines taken out for the metadata.
 pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
     let mut p = P { file, out: Vec::new() };
-    let mut meta = Meta::default();
-    let mut header: Option<(usize, Vec<String>)> = None;
-    let (mut t, mut r, mut g) = (Vec::new(), Vec::new(), Vec::new());
-    let mut cols: Option<(usize, usize, usize, usize)> = None; // (time, response, protocol, ncols)
-    let mut response_column = "";
-    let mut protocol_kind = ProtocolKind::Input;
-    let mut ignored = Vec::new();
-    let mut meta_lines: BTreeMap<String, usize> = BTreeMap::new();
-    let mut bad_rows = 0usize;
-    for (i, line) in reader.lines().enumerate() {
-        let n = i + 1;
-        let line = match line {
-            Ok(l) => l,
+    let mut rdr = csv::ReaderBuilder::new().has_headers(false).flexible(true).trim(csv::Trim::All).from_reader(CommentTee::new(reader));
+    let mut rec = csv::StringRecord::new();
+    let mut header: Option<(usize, Option<Columns>)> = None;
+    let mut rows = Rows::default();
+    loop {
+        match rdr.read_record(&mut rec) {
+            Ok(true) => {}
+            Ok(false) => break,
             Err(e) => {
-                p.at(n, "(line)", "unreadable", format!("the file is not text ({e}); export the recording as UTF-8 CSV"));
+                let n = e.position().map(|q| q.line() as usize).unwrap_or(0);
+                p.at(n, "(line)", "unreadable", format!("{e}: export the recording as UTF-8 CSV"));
                 break;
             }
-        };
-        // a spreadsheet's "CSV UTF-8" starts with a byte-order mark
-        let line = if n == 1 { line.trim_start_matches('\u{feff}') } else { line.as_str() }.trim();
-        if line.is_empty() {
+        }
+        let n = rec.position().map(|q| q.line() as usize).unwrap_or(0);
+        if rec.iter().all(str::is_empty) {
             continue;
         }
-        if let Some(c) = line.strip_prefix('#') {
-            if let Some((k, v)) = c.split_once('=') {
-                let (k, v) = (k.trim().to_string(), v.trim().to_string());
-                meta_lines.insert(k.clone(), n);
-                parse_meta(&mut p, n, &k, &v, &mut meta);
-                meta.all.insert(k, v);
-            }
-            continue;
+        match &header {
+            None => header = Some((n, read_header(&mut p, n, &rec))),
+            Some((_, Some(c))) => read_row(&mut p, n, &rec, c, &mut rows),
+            Some((_, None)) => break,
         }
-        let cells: Vec<&str> = line.split(',').map(|c| c.trim()).collect();
-        if header.is_none() && cells.len() == 1 {
-            if let Some(sep) = [';', '\t'].into_iter().find(|c| line.contains(*c)) {
-                let shown = if sep == ';' { "`;`" } else { "tabs" };
-                p.at(
-                    n,
-                    "header",
-                    line,
-                    format!("cells are separated by {shown}: tipforge reads comma-separated files with a decimal point; export the recording as CSV with commas"),
-                );
-                header = Some((n, vec![]));
-                continue;
-            }
-        }
-        if header.is_none() {
-            let names: Vec<String> = cells.iter().map(|c| c.to_ascii_lowercase()).collect();
-            let find = |want: &str| names.iter().enumerate().filter(|(_, c)| *c == want).map(|(i, _)| i).collect::<Vec<_>>();
-            let time = find("time_s");
-            if time.len() != 1 {
-                p.at(
-                    n,
-                    "header",
-                    line,
-                    if time.is_empty() {
-                        "no `time_s` column: the first non-comment line must be a header naming time_s, one response column and one protocol column"
-                    } else {
-                        "`time_s` appears more than once"
-                    },
-                );
-            }
-            let resp: Vec<(usize, &str)> = RESPONSES.iter().flat_map(|c| find(c).into_iter().map(move |i| (i, *c))).collect();
-            if resp.len() != 1 {
-                p.at(n, "header", line, format!("exactly one response column is needed, one of {}; found {}", RESPONSES.join(", "), resp.len()));
-            }
-            let prot: Vec<(usize, ProtocolKind)> = PROTOCOLS.iter().flat_map(|(c, k)| find(c).into_iter().map(move |i| (i, *k))).collect();
-            if prot.len() != 1 {
-                p.at(n, "header", line, format!("exactly one protocol column is needed, one of load_g, force_n, input; found {}", prot.len()));
-            }
-            if time.len() == 1 && resp.len() == 1 && prot.len() == 1 {
-                cols = Some((time[0], resp[0].0, prot[0].0, names.len()));
-                response_column = resp[0].1;
-                protocol_kind = prot[0].1;
-                for (i, name) in names.iter().enumerate() {
-                    if i != time[0] && i != resp[0].0 && i != prot[0].0 {
-                        ignored.push(name.clone());
-                    }
-                }
-            }
-            header = Some((n, names));
-            continue;
-        }
-        let Some((ti, ri, gi, nc)) = cols else { break };
-        if cells.len() != nc {
-            p.at(n, "row", line, format!("has {} cells, the header has {nc}", cells.len()));
-            bad_rows += 1;
-            continue;
-        }
-        let mut vals = [0.0; 3];
-        let mut ok = true;
-        for (k, (ci, name)) in [(ti, "time_s"), (ri, response_column), (gi, protocol_kind.column())].iter().enumerate() {
-            match cells[*ci].parse::<f64>() {
-                Ok(v) if v.is_finite() => vals[k] = v,
-                Ok(v) => {
-                    p.at(n, name, v, "NaN or infinite values are not allowed: remove the row or fill the gap");
-                    ok = false;
-                }
-                Err(_) => {
-                    p.at(n, name, format!("{:?}", cells[*ci]), "not a number");
-                    ok = false;
-                }
-            }
-        }
-        if !ok {
-            bad_rows += 1;
-            continue;
-        }
-        if let Some(&last) = t.last() {
-            if vals[0] <= last {
-                p.at(n, "time_s", vals[0], format!("time must increase (previous row: {last})"));
-                bad_rows += 1;
-                continue;
-            }
-        }
-        if let Some(why) = implausible(response_column, vals[1]) {
-            p.at(n, response_column, shown(vals[1]), why);
-            bad_rows += 1;
-            continue;
-        }
-        if protocol_kind != ProtocolKind::Input && vals[2] < 0.0 {
-            p.at(n, protocol_kind.column(), vals[2], "a load on the sensor cannot be negative: log the load the weights or the actuator put on the sensor (0 when unloaded)");
-            bad_rows += 1;
-            continue;
-        }
-        t.push(vals[0]);
-        r.push(vals[1]);
-        g.push(vals[2]);
     }
+    let tee = rdr.into_inner();
+    if let Some(n) = tee.not_text {
+        p.at(n, "(line)", "unreadable", "the file is not text (invalid UTF-8); export the recording as UTF-8 CSV");
+    }
+    // metadata lines, wherever they stood
+    let mut meta = Meta::default();
+    let mut meta_lines: BTreeMap<String, usize> = BTreeMap::new();
+    for (n, c) in &tee.comments {
+        if let Some((k, v)) = c.split_once('=') {
+            let (k, v) = (k.trim().to_string(), v.trim().to_string());
+            meta_lines.insert(k.clone(), *n);
+            parse_meta(&mut p, *n, &k, &v, &mut meta);
+            meta.all.insert(k, v);
+        }
+    }
+    let header_line = header.as_ref().map(|h| h.0).unwrap_or(1);
     match &header {
         None => p.at(1, "(file)", "empty", "no header and no data: a recording needs a header row (time_s, a response column, a protocol column) and data rows"),
-        Some((hn, _)) if t.is_empty() && p.out.is_empty() => p.at(*hn, "(file)", "no data rows", "the file has a header but no data"),
+        Some((hn, _)) if rows.t.is_empty() && p.out.is_empty() => p.at(*hn, "(file)", "no data rows", "the file has a header but no data"),
         Some(_) => {}
     }
-    rate_in_range(&mut p, &t, header.as_ref().map(|h| h.0).unwrap_or(1));
-    // contradictory metadata
+    let Rows { t, r, g, bad: bad_rows } = rows;
+    rate_in_range(&mut p, &t, header_line);
+    check_meta(&mut p, &meta, &meta_lines, &t);
+    let cols = header.and_then(|h| h.1);
+    let response_column = cols.as_ref().map(|c| c.response_column).unwrap_or("");
+    let (response, unit) = to_unit(&mut p, response_column, r, &meta, header_line);
+    if !p.out.is_empty() {
+        if bad_rows > 50 {
+            p.out.push(Problem {
+                file: file.into(),
+                line: None,
+                path: "(rows)".into(),
+                value: format!("{bad_rows} bad rows"),
+                message: "only the first 50 problems are listed".into(),
+            });
+        }
+        return Err(Error::Input(Problems(p.out)));
+    }
+    let (protocol_kind, ignored) = cols.map(|c| (c.protocol_kind, c.ignored)).unwrap_or((ProtocolKind::Input, vec![]));
+    Ok(Recording { source: file.to_string(), meta, time_s: t, response, unit, response_column, protocol: g, protocol_kind, ignored_columns: ignored })
+}
+
+/// The header row: which columns are read (None when it names no usable set; the problems say why).
+fn read_header(p: &mut P, n: usize, rec: &csv::StringRecord) -> Option<Columns> {
+    let line = rec.iter().collect::<Vec<_>>().join(",");
+    if rec.len() == 1 {
+        if let Some(sep) = [';', '\t'].into_iter().find(|c| line.contains(*c)) {
+            let shown = if sep == ';' { "`;`" } else { "tabs" };
+            p.at(n, "header", &line, format!("cells are separated by {shown}: tipforge reads comma-separated files with a decimal point; export the recording as CSV with commas"));
+            return None;
+        }
+    }
+    let names: Vec<String> = rec.iter().map(|c| c.to_ascii_lowercase()).collect();
+    let find = |want: &str| names.iter().enumerate().filter(|(_, c)| *c == want).map(|(i, _)| i).collect::<Vec<_>>();
+    let time: Vec<Col> = TIMES.iter().flat_map(|&(c, f)| find(c).into_iter().map(move |at| Col { at, name: c, factor: f })).collect();
+    if time.len() != 1 {
+        let why = if time.is_empty() {
+            format!("no `time_s` column: the first non-comment line must be a header naming time_s (or {}), one response column and one protocol column", listed(&TIMES[1..], |x| x.0))
+        } else {
+            "`time_s` appears more than once (a time column is needed exactly once)".to_string()
+        };
+        p.at(n, "header", &line, why);
+    }
+    let resp: Vec<(Col, &'static str)> = RESPONSES.iter().flat_map(|&(c, canon, f)| find(c).into_iter().map(move |at| (Col { at, name: c, factor: f }, canon))).collect();
+    if resp.len() != 1 {
+        p.at(n, "header", &line, format!("exactly one response column is needed, one of {}; found {}", listed(&RESPONSES, |x| x.0), resp.len()));
+    }
+    let prot: Vec<(Col, ProtocolKind)> = PROTOCOLS.iter().flat_map(|&(c, k, f)| find(c).into_iter().map(move |at| (Col { at, name: c, factor: f }, k))).collect();
+    if prot.len() != 1 {
+        p.at(n, "header", &line, format!("exactly one protocol column is needed, one of {}; found {}", listed(&PROTOCOLS, |x| x.0), prot.len()));
+    }
+    if time.len() != 1 || resp.len() != 1 || prot.len() != 1 {
+        return None;
+    }
+    let used = [time[0].at, resp[0].0.at, prot[0].0.at];
+    let ignored = names.iter().enumerate().filter(|(i, _)| !used.contains(i)).map(|(_, c)| c.clone()).collect();
+    Some(Columns { time: time[0], response: resp[0].0, response_column: resp[0].1, protocol: prot[0].0, protocol_kind: prot[0].1, ncols: names.len(), ignored })
+}
+
+/// One data row: its three values in tipforge's units, or its problems.
+fn read_row(p: &mut P, n: usize, rec: &csv::StringRecord, c: &Columns, rows: &mut Rows) {
+    if rec.len() != c.ncols {
+        p.at(n, "row", rec.iter().collect::<Vec<_>>().join(","), format!("has {} cells, the header has {}", rec.len(), c.ncols));
+        rows.bad += 1;
+        return;
+    }
+    let mut vals = [0.0; 3];
+    let mut ok = true;
+    for (k, col) in [c.time, c.response, c.protocol].iter().enumerate() {
+        match rec[col.at].parse::<f64>() {
+            Ok(v) if v.is_finite() => vals[k] = v * col.factor,
+            Ok(v) => {
+                p.at(n, col.name, v, "NaN or infinite values are not allowed: remove the row or fill the gap");
+                ok = false;
+            }
+            Err(_) => {
+                p.at(n, col.name, format!("{:?}", &rec[col.at]), "not a number");
+                ok = false;
+            }
+        }
+    }
+    if !ok {
+        rows.bad += 1;
+        return;
+    }
+    if let Some(&last) = rows.t.last() {
+        if vals[0] <= last {
+            p.at(n, c.time.name, shown(vals[0] / c.time.factor), format!("time must increase (previous row: {})", shown(last / c.time.factor)));
+            rows.bad += 1;
+            return;
+        }
+    }
+    if let Some(why) = implausible(c.response_column, vals[1]) {
+        p.at(n, c.response.name, shown(vals[1] / c.response.factor), why);
+        rows.bad += 1;
+        return;
+    }
+    if c.protocol_kind != ProtocolKind::Input && vals[2] < 0.0 {
+        p.at(n, c.protocol.name, rec[c.protocol.at].to_string(), "a load on the sensor cannot be negative: log the load the weights or the actuator put on the sensor (0 when unloaded)");
+        rows.bad += 1;
+        return;
+    }
+    rows.t.push(vals[0]);
+    rows.r.push(vals[1]);
+    rows.g.push(vals[2]);
+}
+
+/// Metadata that contradicts the data.
+fn check_meta(p: &mut P, meta: &Meta, meta_lines: &BTreeMap<String, usize>, t: &[f64]) {
     if let (Some(fs), true) = (meta.sample_rate_hz, t.len() > 10) {
         let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-        d.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        d.sort_by(|a, b| a.total_cmp(b));
         let med = d[d.len() / 2];
         if ((1.0 / med) / fs - 1.0).abs() > 0.1 {
             p.at(
@@ -271,6 +335,10 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
             );
         }
     }
+}
+
+/// The response in volts where the metadata allow, else in its column's unit.
+fn to_unit(p: &mut P, response_column: &'static str, r: Vec<f64>, meta: &Meta, header_line: usize) -> (Vec<f64>, &'static str) {
     if let (Some(bits), Some(_)) = (meta.adc_bits, meta.vref_v) {
         if response_column == "adc_counts" {
             let max = (1u64 << bits.min(32)) as f64 - 1.0;
@@ -279,17 +347,12 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
             }
         }
     }
-    let (response, unit) = match response_column {
+    match response_column {
         "voltage_v" => (r, "V"),
         "adc_counts" => match (meta.adc_bits, meta.vref_v) {
             (Some(bits), Some(vref)) => (r.iter().map(|c| c / ((1u64 << bits) as f64 - 1.0) * vref).collect(), "V"),
             _ => {
-                p.at(
-                    header.as_ref().map(|h| h.0).unwrap_or(1),
-                    "adc_counts",
-                    "no adc_bits/vref_v",
-                    "converting counts to volts needs `# adc_bits=12` and `# vref_v=3.3` metadata lines",
-                );
+                p.at(header_line, "adc_counts", "no adc_bits/vref_v", "converting counts to volts needs `# adc_bits=12` and `# vref_v=3.3` metadata lines");
                 (r, "counts")
             }
         },
@@ -306,20 +369,7 @@ pub fn parse(file: &str, reader: impl BufRead) -> Result<Recording> {
             _ => (r, "ohm"),
         },
         _ => (r, ""),
-    };
-    if !p.out.is_empty() {
-        if bad_rows > 50 {
-            p.out.push(Problem {
-                file: file.into(),
-                line: None,
-                path: "(rows)".into(),
-                value: format!("{bad_rows} bad rows"),
-                message: "only the first 50 problems are listed".into(),
-            });
-        }
-        return Err(Error::Input(Problems(p.out)));
     }
-    Ok(Recording { source: file.to_string(), meta, time_s: t, response, unit, response_column, protocol: g, protocol_kind, ignored_columns: ignored })
 }
 
 /// The largest response magnitudes tipforge reads, per column: beyond them the column is in
@@ -478,6 +528,33 @@ mod tests {
         assert!(s.contains("t.csv:5:"), "{s}");
         assert!(s.contains("t.csv:6: time_s = 0: time must increase"), "{s}");
         assert!(s.contains("t.csv:7:") && s.contains("has 2 cells"), "{s}");
+    }
+
+    /// Issue 17, defect 10: CSV as spreadsheets write it.
+    #[test]
+    fn quoted_headers_and_cells_are_read() {
+        let r = parse_str("\"time_s\",\"voltage_v\",\"load_g\",\"note, free text\"\n\"0\",\"0.1\",\"0\",\"a, b\"\n0.01,0.2,100,\"x\"\n").unwrap();
+        assert_eq!(r.time_s, vec![0.0, 0.01]);
+        assert_eq!(r.response, vec![0.1, 0.2]);
+        assert_eq!(r.protocol, vec![0.0, 100.0]);
+        assert_eq!(r.ignored_columns, vec!["note, free text".to_string()]);
+        // a comment with a lone quote does not swallow the rows after it
+        let r = parse_str("time_s,voltage_v,load_g\n# 5\" weight placed\n0,0.1,0\n0.01,0.2,100\n").unwrap();
+        assert_eq!(r.len(), 2);
+    }
+
+    #[test]
+    fn columns_in_other_obvious_units_are_converted() {
+        let r = parse_str("time_ms,voltage_mv,force_kgf\n0,100,0\n10,250,1\n").unwrap();
+        assert_eq!(r.time_s, vec![0.0, 0.01]);
+        assert!((r.response[1] - 0.25).abs() < 1e-12 && r.unit == "V" && r.response_column == "voltage_v");
+        assert_eq!(r.protocol_kind, ProtocolKind::ForceN);
+        assert!((r.protocol[1] - 9.80665).abs() < 1e-12);
+        let r = parse_str("time_s,resistance_kohm,load_kg\n0,40,0\n1,35,0.2\n").unwrap();
+        assert_eq!((r.response[0], r.unit), (40_000.0, "ohm"));
+        assert_eq!((r.protocol[1], r.protocol_kind), (200.0, ProtocolKind::LoadG));
+        // a problem names the column as the file does
+        assert!(problems("time_ms,voltage_mv,load_g\n0,1,0\n10,abc,0\n").contains("t.csv:3: voltage_mv = \"abc\""));
     }
 
     #[test]
