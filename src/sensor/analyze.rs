@@ -122,6 +122,15 @@ fn prepare_with(recs: &[Recording], opts: &Options, extra: &[Vec<SpikeWindow>]) 
         }
         let (s, spikes) = preprocess::prepare_with(r, &o, &extra[ri]);
         let (steps, mut notes) = preprocess::segment(r, &o);
+        if let Some(raw) = &r.raw {
+            notes.push(format!(
+                "{} samples at {:.1} Hz block-averaged {} to one ({:.1} Hz) before fitting: the model's time constants are far slower",
+                raw.samples,
+                raw.sample_rate_hz,
+                raw.block,
+                r.sample_rate_hz()
+            ));
+        }
         if !o.mean_filter && opts.pre.mean_filter {
             notes.push(format!("mean filter off: the recording is at {:.2} Hz, not 100 Hz", r.sample_rate_hz()));
         }
@@ -131,7 +140,7 @@ fn prepare_with(recs: &[Recording], opts: &Options, extra: &[Vec<SpikeWindow>]) 
             sample_rate_hz: r.sample_rate_hz(),
             unit: r.unit.to_string(),
             noise_sigma: s.sigma,
-            noise_sigma_raw: preprocess::noise_sigma(&r.response),
+            noise_sigma_raw: r.raw.as_ref().map(|x| x.noise_sigma).unwrap_or_else(|| preprocess::noise_sigma(&r.response)),
             filter_block: if o.mean_filter { o.block.max(1) } else { 1 },
             steps: steps.len(),
             spikes,

@@ -21,7 +21,7 @@ pub fn read_all(paths: &[PathBuf], progress: bool) -> Result<Vec<Recording>> {
         if progress {
             eprintln!("[{}/{}] reading {}", i + 1, paths.len(), p.display());
         }
-        recs.extend(g.take(recording::read(p).map_err(|e| e.io_as_input("(file)", "check the path")))?);
+        recs.extend(g.take(recording::read(p).map_err(|e| e.io_as_input("(file)", "check the path")))?.map(super::decimate::to_working_rate));
     }
     let recs = g.finish(Some(recs))?;
     if recs.is_empty() {

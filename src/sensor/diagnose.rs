@@ -739,7 +739,11 @@ pub struct LocatedWindow {
     pub statistic: String,
 }
 
-/// Per recording, per raw sample: measured, baseline and improved predictions.
+/// The most rows a prediction file holds: a longer recording's predictions are given at every
+/// stride-th sample.
+pub const MAX_PREDICTION_ROWS: usize = 1_000_000;
+
+/// Per recording, per sample (every `stride`-th): measured, baseline and improved predictions.
 #[derive(Debug, Clone)]
 pub struct Prediction {
     pub stem: String,
@@ -748,6 +752,8 @@ pub struct Prediction {
     pub baseline: Vec<f64>,
     pub improved: Vec<f64>,
     pub windows: Vec<(f64, f64)>,
+    /// Samples of the (working-rate) recording per row.
+    pub stride: usize,
 }
 
 fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Options) -> Vec<Trial> {
@@ -1505,10 +1511,14 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         // at the raw samples: point values, not filtered-sample averages
         let tr = &Trial { half_span_s: 0.0, ..tr.clone() };
         let be = &Trial { half_span_s: 0.0, ..final_base[i].clone() };
-        let baseline: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, be, t, &xb, &base_cfg, &hat0, &mut buf)).collect();
-        let improved: Vec<f64> = rec.time_s.iter().map(|&t| predict(&d, i, tr, t, &cur_x, &cur, &hat, &mut buf)).collect();
+        // every sample up to MAX_PREDICTION_ROWS, else every stride-th: a file a person can open
+        let stride = rec.len().div_ceil(MAX_PREDICTION_ROWS).max(1);
+        let time_s: Vec<f64> = rec.time_s.iter().step_by(stride).copied().collect();
+        let measured: Vec<f64> = rec.response.iter().step_by(stride).copied().collect();
+        let baseline: Vec<f64> = time_s.iter().map(|&t| predict(&d, i, be, t, &xb, &base_cfg, &hat0, &mut buf)).collect();
+        let improved: Vec<f64> = time_s.iter().map(|&t| predict(&d, i, tr, t, &cur_x, &cur, &hat, &mut buf)).collect();
         let windows = findings.iter().flat_map(|f| f.windows.iter()).filter(|w| w.recording == rec.source).map(|w| (w.start_s, w.end_s)).collect();
-        predictions.push(Prediction { stem: rec.stem(), time_s: rec.time_s.clone(), measured: rec.response.clone(), baseline, improved, windows });
+        predictions.push(Prediction { stem: rec.stem(), time_s, measured, baseline, improved, windows, stride });
     }
     Some(Outcome::Done(Box::new(Diagnosis {
         schema: SCHEMA,

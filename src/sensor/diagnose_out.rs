@@ -70,6 +70,9 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     let mut imgs = Vec::new();
     for p in &d.predictions {
         let mut csv = String::with_capacity(p.time_s.len() * 40);
+        if p.stride > 1 {
+            csv.push_str(&format!("# every {}-th sample of the recording (at most {} rows)\n", p.stride, super::diagnose::MAX_PREDICTION_ROWS));
+        }
         csv.push_str("time_s,measured,baseline,improved\n");
         for i in 0..p.time_s.len() {
             csv.push_str(&format!("{:.4},{:.6},{:.6},{:.6}\n", p.time_s[i], p.measured[i], p.baseline[i], p.improved[i]));

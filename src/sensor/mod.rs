@@ -4,6 +4,7 @@ pub mod analyze;
 pub mod catalogue;
 pub mod cli;
 pub mod csv_source;
+pub mod decimate;
 pub mod diagnose;
 pub mod diagnose_out;
 pub mod fashion;

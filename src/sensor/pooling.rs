@@ -154,6 +154,7 @@ mod tests {
             protocol: g,
             protocol_kind: ProtocolKind::LoadG,
             ignored_columns: vec![],
+            raw: None,
         }
     }
 

@@ -73,25 +73,29 @@ impl Default for Options {
     }
 }
 
+/// The median, by selection (linear time; the slice is reordered).
 pub fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
     let n = v.len();
+    let (lower, mid, _) = v.select_nth_unstable_by(n / 2, |a, b| a.total_cmp(b));
+    let mid = *mid;
     if n % 2 == 1 {
-        v[n / 2]
+        mid
     } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+        0.5 * (lower.iter().copied().fold(f64::NEG_INFINITY, f64::max) + mid)
     }
 }
 
 /// Robust noise sigma from first differences: 1.4826 · MAD(diff) / √2.
 pub fn noise_sigma(v: &[f64]) -> f64 {
     let mut d: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
-    let m = median(&mut d.clone());
-    let mut dev: Vec<f64> = d.iter_mut().map(|x| (*x - m).abs()).collect();
-    1.4826 * median(&mut dev) / std::f64::consts::SQRT_2
+    let m = median(&mut d);
+    for x in d.iter_mut() {
+        *x = (*x - m).abs();
+    }
+    1.4826 * median(&mut d) / std::f64::consts::SQRT_2
 }
 
 /// Handling spikes: short excursions from a running median (edge-preserving, so monotone steps
@@ -280,6 +284,7 @@ mod tests {
             protocol: g,
             protocol_kind: ProtocolKind::LoadG,
             ignored_columns: vec![],
+            raw: None,
         }
     }
 

@@ -240,6 +240,7 @@ pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover:
         protocol: logged,
         protocol_kind: ProtocolKind::LoadG,
         ignored_columns: vec![],
+        raw: None,
     };
     (rec, Truth { seed, preload_g, steps, clean_v: clean, first_order_v: fo })
 }
