@@ -71,7 +71,7 @@ mod tests {
         assert_eq!(r.len(), 300);
         assert!((r.sample_rate_hz() - 100.0).abs() < 1e-9);
         assert_eq!(r.raw.as_ref().map(|x| (x.samples, x.block)), Some((3000, 10)));
-        assert!((r.time_s[0] - 0.0045).abs() < 1e-12 && r.response[0] == 0.1 && r.response[150] == 0.5);
+        assert!((r.time_s[0] - 0.0045).abs() < 1e-12 && (r.response[0] - 0.1).abs() < 1e-12 && (r.response[150] - 0.5).abs() < 1e-12);
         assert_eq!(r.protocol[99], 0.0);
         assert_eq!(r.protocol[100], 100.0);
     }
