@@ -168,7 +168,9 @@ pub fn run(opts: &Options) -> Result<Report> {
     let mut violations = Vec::new();
     let mut sections = Map::new();
     let mut notes = Vec::new();
+    let bar = crate::progress::Progress::new("build", loaded.len() + 1);
     for l in &loaded {
+        bar.step(format!("building {}", l.rel));
         let t0 = Instant::now();
         let Built { parts, assemblies, violations: assembly_violations, sections: secs, notes: job_notes } = build_job(&l.job)?;
         notes.extend(job_notes);
@@ -219,6 +221,7 @@ pub fn run(opts: &Options) -> Result<Report> {
         }
     }
     staged.add(opts.out_dir.join("manifest.json"), manifest::document(entries, sections));
+    bar.step(format!("writing {}", opts.out_dir.display()));
     let written = staged.commit(&lock)?;
     Ok(Report { summaries, written, skipped, notes })
 }

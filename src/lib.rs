@@ -12,5 +12,6 @@ pub mod params;
 pub mod part;
 pub mod plot;
 pub mod preview;
+pub mod progress;
 pub mod rig;
 pub mod sensor;

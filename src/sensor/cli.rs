@@ -5,6 +5,7 @@ use super::recording::{self, Recording};
 use super::sim::{self, Cover};
 use crate::error::{Error, Gather, Result};
 use crate::export::Staged;
+use crate::progress::Progress;
 use crate::params::read_source;
 use crate::params::sensor::{ProtocolParams, SensorParams};
 use std::path::{Path, PathBuf};
@@ -14,12 +15,12 @@ fn out_dir(out: &Path) -> Result<()> {
 }
 
 /// Reads every recording, collecting every file's problems before failing.
-pub fn read_all(paths: &[PathBuf], progress: bool) -> Result<Vec<Recording>> {
+pub fn read_all(paths: &[PathBuf], progress: Option<&Progress>) -> Result<Vec<Recording>> {
     let mut recs = Vec::new();
     let mut g = Gather::default();
-    for (i, p) in paths.iter().enumerate() {
-        if progress {
-            eprintln!("[{}/{}] reading {}", i + 1, paths.len(), p.display());
+    for p in paths {
+        if let Some(bar) = progress {
+            bar.step(format!("reading {}", p.display()));
         }
         recs.extend(g.take(recording::read(p).map_err(|e| e.io_as_input("(file)", "check the path")))?.map(super::decimate::to_working_rate));
     }
@@ -42,13 +43,15 @@ pub struct FitSummary {
 pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Result<FitSummary> {
     let mut g = Gather::default();
     g.take(out_dir(out))?;
-    let recs = g.take(read_all(paths, paths.len() > 3))?;
+    let bar = Progress::new("fit", paths.len() + 2);
+    let recs = g.take(read_all(paths, Some(&bar)))?;
     let mut opts = Options { method, ..Options::default() };
     opts.pre.mean_filter = filter;
     if let Some(r) = &recs {
         g.0.extend(super::pooling::problems(paths, r, &opts.pre, false));
     }
     let recs = g.finish(recs)?;
+    bar.step("fitting the steps");
     let (report, prep) = analyze::analyze(&recs, &opts);
     let mut lines = Vec::new();
     for r in &report.recordings {
@@ -93,6 +96,7 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Resul
     for n in &report.notes {
         lines.push(format!("note: {n}"));
     }
+    bar.step(format!("writing {}", out.display()));
     let written = analyze_stage(&report, &prep, method, out)?;
     Ok(FitSummary { lines, written })
 }
@@ -184,7 +188,9 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
     let mut st = Staged::default();
     let stem = spec.out.file_stem().and_then(|x| x.to_str()).unwrap_or("rec").to_string();
     let dir = spec.out.parent().unwrap_or(Path::new(""));
+    let bar = Progress::new("simulate", spec.trials + 1);
     for k in 0..spec.trials {
+        bar.step(format!("trial {} of {}", k + 1, spec.trials));
         let seed = spec.seed + k as u64;
         let (mut rec, truth) = sim::simulate(&s, &p, preload, cover.as_ref(), seed);
         let name = if spec.trials > 1 { format!("{stem}-{}", k + 1) } else { stem.clone() };
@@ -209,6 +215,7 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
         }
         st.add(dir.join("truth").join(format!("{name}.csv")), csv.into_bytes());
     }
+    bar.step("writing");
     let lock = crate::export::outdir::OutLock::acquire(dir)?;
     st.commit(&lock)
 }
@@ -217,7 +224,8 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
 pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Path>, rig: Option<&Path>, actuator: bool) -> Result<FitSummary> {
     let mut g = Gather::default();
     g.take(out_dir(out))?;
-    let recs = g.take(read_all(paths, paths.len() > 3))?;
+    let bar = Progress::new("diagnose", paths.len() + 2);
+    let recs = g.take(read_all(paths, Some(&bar)))?;
     let sp = g.take(sensor.map(load_sensor).transpose())?;
     let manifest_preload = g.take(rig.map(preload_from_manifest).transpose())?;
     let mut opts = Options::default();
@@ -244,9 +252,13 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
         return Err(Error::input(&recs[0].source, "response", recs[0].unit, "--sensor compares voltages: give the divider metadata (vcc_v, r_m_ohm, divider) or a voltage column"));
     }
     let sb = sp.as_ref().map(|s| super::diagnose::SimBaseline { sensor: s, preload_g: preload });
+    bar.step("locating, choosing and refitting terms (held out)");
     let d = super::diagnose::diagnose_with(&recs, &opts, sb.as_ref())
         .ok_or_else(|| Error::input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
     super::heldout_guard::check(&d, &recs)?;
+    // the recordings are the largest thing held: gone before the outputs are built
+    drop(recs);
+    bar.step(format!("writing {}", out.display()));
     let lines = super::diagnose_out::summary(&d);
     let lock = crate::export::outdir::OutLock::acquire(out)?;
     let written = super::diagnose_out::stage(&d, out).commit(&lock)?;

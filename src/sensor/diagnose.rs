@@ -1476,8 +1476,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     // change), and so is the baseline, on the data as given — the two keep the same freedom. During
     // selection the onsets stay at their part-1 values: free there, they take up part of a term's
     // shape. Without a term nothing is refitted (the baseline stands).
-    let mut final_trials = trials.clone();
-    let mut final_base = base_eval.clone();
+    let mut refitted: Option<Vec<Trial>> = None;
+    let mut base_segs: Option<Vec<Trial>> = None;
     let (xb, cur_x) = if !d.prior && (!cur.effects.is_empty() || refit_always) {
         let mut cur_r = refit_onsets(&d, &trials, &cur, &hat);
         // τ2 and the first-order shape depend on each other: τ2 refined on the refitted shape,
@@ -1490,10 +1490,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         }
         match (refit_onsets(&d, &base_fit, &base_cfg, &hat0), cur_r) {
             (Some((gb, xb2)), Some((gc, xc2))) => {
-                for (k, tr) in final_base.iter_mut().enumerate() {
-                    tr.segs = gb[k].segs.clone();
-                }
-                final_trials = gc;
+                base_segs = Some(gb);
+                refitted = Some(gc);
                 // the terms' parameters as in the refitted model
                 for f in findings.iter_mut() {
                     if let Some(&e) = cur.effects.iter().find(|e| e.name() == f.effect) {
@@ -1507,10 +1505,20 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     } else {
         (xb.clone(), cur_x.clone())
     };
+    // moved, not copied: a long recording's trials are large
+    let mut final_trials = refitted.unwrap_or(trials);
+    let mut final_base = base_eval;
+    if let Some(gb) = base_segs {
+        for (tr, g) in final_base.iter_mut().zip(gb) {
+            tr.segs = g.segs;
+        }
+    }
+    // at the raw samples: point values, not filtered-sample averages
+    for tr in final_trials.iter_mut().chain(final_base.iter_mut()) {
+        tr.half_span_s = 0.0;
+    }
     for (i, (rec, tr)) in recs.iter().zip(&final_trials).enumerate() {
-        // at the raw samples: point values, not filtered-sample averages
-        let tr = &Trial { half_span_s: 0.0, ..tr.clone() };
-        let be = &Trial { half_span_s: 0.0, ..final_base[i].clone() };
+        let be = &final_base[i];
         // every sample up to MAX_PREDICTION_ROWS, else every stride-th: a file a person can open
         let stride = rec.len().div_ceil(MAX_PREDICTION_ROWS).max(1);
         let time_s: Vec<f64> = rec.time_s.iter().step_by(stride).copied().collect();

@@ -88,9 +88,15 @@ pub fn median(v: &mut [f64]) -> f64 {
     }
 }
 
+/// The most samples a robust statistic (median interval, noise σ) is computed from.
+pub const MAX_STAT_SAMPLES: usize = 1 << 20;
+
 /// Robust noise sigma from first differences: 1.4826 · MAD(diff) / √2.
 pub fn noise_sigma(v: &[f64]) -> f64 {
-    let mut d: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
+    // at most ~MAX_STAT_SAMPLES differences, evenly strided (a robust σ from 10^6 differences is
+    // as good as from 10^7, and a long recording's memory is not doubled for it)
+    let stride = v.len().div_ceil(MAX_STAT_SAMPLES).max(1);
+    let mut d: Vec<f64> = v.windows(2).step_by(stride).map(|w| w[1] - w[0]).collect();
     let m = median(&mut d);
     for x in d.iter_mut() {
         *x = (*x - m).abs();
@@ -110,17 +116,30 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
     // ask for a buffer of 10^300 samples)
     let samples = |s: f64| ((s / dt).round().min(n as f64) as usize).max(1);
     let half = samples(0.25).max(2);
-    let mut resid = vec![0.0; n];
+    // before the residuals are allocated: a long recording's peak memory is the sum
+    let diff_sigma = noise_sigma(v);
+    // residuals in single precision (compared with a threshold of several σ; half the memory of
+    // a long recording)
+    let mut resid = vec![0.0f32; n];
     let mut buf = Vec::with_capacity(2 * half + 1);
     for i in 0..n {
         buf.clear();
         let h = half.min(i).min(n - 1 - i); // centred window, narrowed at the ends
         buf.extend_from_slice(&v[i - h..=i + h]);
-        resid[i] = v[i] - median(&mut buf);
+        resid[i] = (v[i] - median(&mut buf)) as f32;
     }
-    let mut abs: Vec<f64> = resid.iter().map(|r| r.abs()).collect();
-    let sigma = (1.4826 * median(&mut abs)).max(noise_sigma(v)).max(1e-12);
-    let thr = opts.spike_sigma * sigma;
+    let mad = {
+        let mut a: Vec<f32> = resid.iter().map(|r| r.abs()).collect();
+        let k = a.len() / 2;
+        let (lo, mid, _) = a.select_nth_unstable_by(k, |x, y| x.total_cmp(y));
+        if n % 2 == 1 {
+            *mid as f64
+        } else {
+            0.5 * (lo.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64 + *mid as f64)
+        }
+    };
+    let sigma = (1.4826 * mad).max(diff_sigma).max(1e-12);
+    let thr = (opts.spike_sigma * sigma) as f32;
     let mut mask = vec![true; n];
     let mut windows = Vec::new();
     let mut i = 0;
@@ -136,7 +155,7 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
         while j < n && quiet <= gap {
             if resid[j].abs() > thr {
                 quiet = 0;
-                peak = if resid[j].abs() > peak.abs() { resid[j] } else { peak };
+                peak = if f64::from(resid[j].abs()) > peak.abs() { f64::from(resid[j]) } else { peak };
             } else {
                 quiet += 1;
             }

@@ -102,7 +102,8 @@ impl Recording {
     }
     /// Median sample interval (s).
     pub fn dt(&self) -> f64 {
-        let mut d: Vec<f64> = self.time_s.windows(2).map(|w| w[1] - w[0]).collect();
+        let stride = self.time_s.len().div_ceil(super::preprocess::MAX_STAT_SAMPLES).max(1);
+        let mut d: Vec<f64> = self.time_s.windows(2).step_by(stride).map(|w| w[1] - w[0]).collect();
         if d.is_empty() {
             return 0.0;
         }
