@@ -146,3 +146,17 @@ fn help_and_messages_name_their_units_and_causes() {
     assert!(md.lines().next().unwrap().contains("| k (V per kg) |"), "{md}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Issue 17, defect 6: the console names a simulator baseline as one (it said "first-order steps"
+/// while diagnosis.json said simulator).
+#[test]
+fn a_simulator_baseline_is_called_one_on_the_console() {
+    let d = dir("simconsole");
+    let rec = d.join("rec.csv");
+    let (code, text) = tipforge([OsArg::s("simulate"), OsArg::s("--protocol"), OsArg::s("params/protocol-200g.toml"), OsArg::s("-o"), OsArg::p(&rec)]);
+    assert_eq!(code, 0, "{text}");
+    let (code, text) = tipforge([OsArg::s("diagnose"), OsArg::p(&rec), OsArg::s("--sensor"), OsArg::s("params/sensor.toml"), OsArg::s("--out"), OsArg::p(&d.join("diag"))]);
+    assert_eq!(code, 0, "{text}");
+    assert!(text.starts_with("simulator baseline:") && !text.contains("first-order steps"), "{text}");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -432,6 +432,8 @@ pub struct Score {
     pub heldout_rmse: f64,
     pub bic: f64,
     pub params: usize,
+    /// Samples scored.
+    pub n: usize,
     /// Held-out squared error per unit (trial × step segment, or step segment), for paired tests.
     #[serde(skip)]
     pub units: Vec<f64>,
@@ -630,7 +632,7 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
         }
     }
     let unit_keys = units.keys().copied().collect();
-    Some((Score { rmse: (rss / n.max(1) as f64).sqrt(), heldout_rmse: (hss / hn.max(1) as f64).sqrt(), bic, params: p, units: units.into_values().collect(), unit_keys }, x))
+    Some((Score { rmse: (rss / n.max(1) as f64).sqrt(), heldout_rmse: (hss / hn.max(1) as f64).sqrt(), bic, params: p, n, units: units.into_values().collect(), unit_keys }, x))
 }
 
 /// Paired z statistic of the held-out improvement over units (positive: the candidate predicts
@@ -1068,8 +1070,81 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
 
 /// With `sim`, the simulator's first-order prediction for each trial's logged protocol (at the
 /// onsets found in the data) is the baseline; only per-trial offsets and catalogue terms are fitted.
+///
+/// A simulator whose preload is not the recordings' is corrected first: the preload that fits the
+/// recordings best is sought, and when it predicts held-out data better it is named as a preload
+/// (or offset) mismatch, the first finding, and the rest of the diagnosis runs on the corrected
+/// simulator (a wrong preload changes every level and time constant, and would otherwise be
+/// taken for other effects).
 pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Diagnosis> {
-    run_spike_checked(recs, opts, sim, false)
+    let Some(sb) = sim else { return run_spike_checked(recs, opts, None, false) };
+    let Some((given, best, best_score)) = preload_search(recs, opts, sb) else { return run_spike_checked(recs, opts, sim, false) };
+    let gain = (given.heldout_rmse - best_score.heldout_rmse) / given.heldout_rmse.max(1e-300);
+    if gain < MIN_PRELOAD_GAIN || (best - sb.preload_g).abs() < 1.0 {
+        return run_spike_checked(recs, opts, sim, false);
+    }
+    let corrected = SimBaseline { sensor: sb.sensor, preload_g: best };
+    let mut d = run_spike_checked(recs, opts, Some(&corrected), false)?;
+    let dbic = best_score.bic - given.bic + (given.n.max(2) as f64).ln();
+    d.findings.insert(
+        0,
+        Finding {
+            effect: "preload_mismatch",
+            confidence: if gain > 0.25 { "high" } else { "medium" },
+            explanation: format!(
+                "the recordings sit where the simulator puts a preload of {} g, not the {} g it was given (--rig manifest or the sensor file's rig.preload_g): a constant load the logged protocol leaves out (the plunger's mass, a pre-tensioned cover) or a level offset; corrected before any other term was sought",
+                catalogue::sig3(best),
+                catalogue::sig3(sb.preload_g)
+            ),
+            windows: vec![],
+            term: Term { name: "preload_mismatch".into(), params: serde_json::json!({"preload_g_given": sb.preload_g, "preload_g_fitted": best}) },
+            heldout_rmse_before: given.heldout_rmse,
+            heldout_rmse_after: best_score.heldout_rmse,
+            delta_bic: dbic,
+        },
+    );
+    d.final_.effects.insert(0, "preload_mismatch");
+    d.baseline.rmse = given.rmse;
+    d.baseline.heldout_rmse = given.heldout_rmse;
+    d.baseline.bic = given.bic;
+    Some(d)
+}
+
+/// A preload correction is named when it lowers the simulator baseline's held-out RMSE by this.
+pub const MIN_PRELOAD_GAIN: f64 = 0.10;
+
+/// The simulator baseline's score at the given preload, and the preload (g) that fits the
+/// recordings best with its score: a coarse grid over 0 to max(200 g, 4 × given, the largest
+/// load), then golden section around the best point (on the fit RMSE; held-out decides above).
+fn preload_search(recs: &[Recording], opts: &Options, sb: &SimBaseline) -> Option<(Score, f64, Score)> {
+    let score_at = |p: f64| -> Option<Score> {
+        match run(recs, opts, Some(&SimBaseline { sensor: sb.sensor, preload_g: p }), false, true)? {
+            Outcome::Baseline(s) => Some(s),
+            _ => None,
+        }
+    };
+    let given = score_at(sb.preload_g)?;
+    let kind = recs.first()?.protocol_kind;
+    let top = recs.iter().flat_map(|r| r.protocol.iter().filter_map(|&x| kind.grams(x))).fold(0.0f64, f64::max);
+    let hi = 200f64.max(4.0 * sb.preload_g).max(top);
+    let grid: Vec<f64> = (0..=12).map(|i| hi * (i as f64 / 12.0).powi(2)).collect();
+    let mut scored: Vec<(f64, f64)> = grid.iter().filter_map(|&p| score_at(p).map(|s| (p, s.rmse))).collect();
+    scored.push((sb.preload_g, given.rmse));
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let k = (0..scored.len()).min_by(|&a, &b| scored[a].1.total_cmp(&scored[b].1))?;
+    let (mut a, mut b) = (scored[k.saturating_sub(1)].0, scored[(k + 1).min(scored.len() - 1)].0);
+    let phi = 0.618_033_988_749_895;
+    for _ in 0..14 {
+        let (c, e) = (b - phi * (b - a), a + phi * (b - a));
+        match (score_at(c), score_at(e)) {
+            (Some(sc), Some(se)) if sc.rmse <= se.rmse => b = e,
+            (Some(_), Some(_)) => a = c,
+            _ => break,
+        }
+    }
+    let best = 0.5 * (a + b);
+    let s = score_at(best)?;
+    Some((given, best, s))
 }
 
 /// The estimation floor of the model's first-order part: [`diagnose`] with the final refit done
@@ -1086,6 +1161,8 @@ pub fn refitted_baseline(recs: &[Recording], opts: &Options) -> Option<Diagnosis
 enum Outcome {
     Done(Box<Diagnosis>),
     SpikesRejected { windows: Vec<Window>, before: f64, after: f64, unit: String },
+    /// Only the baseline was scored (a simulator preload being searched).
+    Baseline(Score),
 }
 
 /// Handling spikes are excluded only when held-out evidence agrees. Excluding true spikes lowers
@@ -1097,13 +1174,14 @@ enum Outcome {
 /// data as given, and the windows are kept as located failures of the baseline, each saying why
 /// it was not excluded.
 fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool) -> Option<Diagnosis> {
-    let (windows, before, after, unit) = match run(recs, opts, sim, refit_always)? {
+    let (windows, before, after, unit) = match run(recs, opts, sim, refit_always, false)? {
         Outcome::Done(d) => return Some(*d),
         Outcome::SpikesRejected { windows, before, after, unit } => (windows, before, after, unit),
+        Outcome::Baseline(_) => return None,
     };
     let mut as_given = opts.clone();
     as_given.pre.handling = false;
-    let Outcome::Done(mut again) = run(recs, &as_given, sim, refit_always)? else { return None };
+    let Outcome::Done(mut again) = run(recs, &as_given, sim, refit_always, false)? else { return None };
     let why = format!(
         "short excursion at a step edge, not excluded as a handling spike: excluding the {} such window(s) raised the baseline's held-out RMSE {} → {} {unit}, so they are the model's misfit at the edges",
         windows.len(),
@@ -1120,7 +1198,8 @@ fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     Some(*again)
 }
 
-fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool) -> Option<Outcome> {
+/// The diagnosis; with `baseline_only`, only the baseline's score.
+fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool, baseline_only: bool) -> Option<Outcome> {
     let (report, prep) = analyze::analyze(recs, opts);
     let mut trials = trials_from(&report, &prep, recs, opts);
     // the baseline is the paper's model fitted to the data as given: with handling spikes found,
@@ -1200,6 +1279,9 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     let base_fit: Vec<Trial> =
         if has_spikes { base_eval.iter().map(|tr| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), ..tr.clone() }).collect() } else { base_eval.clone() };
     let (base, xb) = score_on(&d, &base_fit, &base_eval, &base_cfg, &hat)?;
+    if baseline_only {
+        return Some(Outcome::Baseline(base));
+    }
     let (clean, xc) = if has_spikes { score(&d, &trials, &base_cfg, &hat)? } else { (base.clone(), xb.clone()) };
     if has_spikes && clean.heldout_rmse > base.heldout_rmse {
         let windows = signature(Effect::HandlingSpikes, &[], &trials, None, &report);

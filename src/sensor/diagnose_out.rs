@@ -31,7 +31,8 @@ fn plain_params(params: &serde_json::Value) -> String {
 pub fn summary(d: &Diagnosis) -> Vec<String> {
     let u = &d.unit;
     let mut out = Vec::new();
-    out.push(format!("baseline (first-order steps): held-out RMSE {} {u}, fit RMSE {} {u}", sig4(d.baseline.heldout_rmse), sig4(d.baseline.rmse)));
+    let which = if d.baseline.model.contains("simulator") { "simulator baseline" } else { "baseline (first-order steps)" };
+    out.push(format!("{which}: held-out RMSE {} {u}, fit RMSE {} {u}", sig4(d.baseline.heldout_rmse), sig4(d.baseline.rmse)));
     if d.findings.is_empty() {
         out.push("no physics left out was found: every catalogue term failed to improve held-out prediction".into());
     }

@@ -143,6 +143,9 @@ pub fn mean_se(r: &[f64]) -> (f64, f64) {
 
 /// `n` significant digits (no exponent; whole numbers keep all their digits).
 pub fn sig(v: f64, n: i32) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
     let digits = (n - 1 - v.abs().max(1e-300).log10().floor() as i32).max(0) as usize;
     format!("{v:.digits$}")
 }
