@@ -160,3 +160,27 @@ fn a_simulator_baseline_is_called_one_on_the_console() {
     assert!(text.starts_with("simulator baseline:") && !text.contains("first-order steps"), "{text}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Found by the 5 000-mutant fuzz run: the shared recording cut short (its last step 28 s of a
+/// 300 s hold) left a fold that could not determine the held-out step's level, and its held-out
+/// error was beyond the signal's range. That is the user's input (too few steps to hold out),
+/// exit 2 with a sentence, not an internal error and never a number.
+#[test]
+fn a_recording_too_short_to_hold_out_is_an_input_error() {
+    let real = Path::new("../shared/data/real/cbsilicone_v10_Ro.csv");
+    if !real.exists() {
+        eprintln!("skipped: {} is absent", real.display());
+        return;
+    }
+    let d = dir("short");
+    let text = std::fs::read_to_string(real).unwrap();
+    for (name, lines) in [("cut-787s.csv", 3427), ("cut-561s.csv", 2446)] {
+        let f = d.join(name);
+        std::fs::write(&f, text.lines().take(lines).collect::<Vec<_>>().join("\n") + "\n").unwrap();
+        let (code, out) = tipforge([OsArg::s("diagnose"), OsArg::p(&f), OsArg::s("--out"), OsArg::p(&d.join("diag"))]);
+        assert_eq!(code, 2, "{name}: {out}");
+        assert!(out.contains("too few steps to hold out") && !out.contains("internal error"), "{out}");
+        assert!(!d.join("diag").exists());
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

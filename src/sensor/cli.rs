@@ -254,7 +254,14 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
     let sb = sp.as_ref().map(|s| super::diagnose::SimBaseline { sensor: s, preload_g: preload });
     bar.step("locating, choosing and refitting terms (held out)");
     let d = super::diagnose::diagnose_with(&recs, &opts, sb.as_ref())
-        .ok_or_else(|| Error::input(&recs[0].source, "protocol", "fewer than two load levels", "diagnosis needs recordings with at least one step of the protocol column"))?;
+        .ok_or_else(|| {
+            Error::input(
+                &recs[0].source,
+                "protocol",
+                "too few steps to hold out",
+                "diagnosis needs at least one step of the protocol column, and each load level held in enough steps that every step can be predicted from the others (a level held once or only briefly cannot be scored held out): record more cycles, or give more trials",
+            )
+        })?;
     super::heldout_guard::check(&d, &recs)?;
     // the recordings are the largest thing held: gone before the outputs are built
     drop(recs);

@@ -369,6 +369,17 @@ fn usable(tr: &Trial, j: usize, cfg: &Config) -> bool {
 
 /// Least squares of the configuration on the given (trial, sample) rows.
 fn solve(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, hat: &Hat) -> Option<Vec<f64>> {
+    solve_with(d, trials, rows, cfg, hat, None).map(|(x, _)| x)
+}
+
+/// A column holding less than this share of its energy on all the data is not determined by a
+/// fold's training rows: it is left at zero there (the held-out step's own τ, onset shift or
+/// term columns, whatever the penalty would leave otherwise).
+const MIN_FOLD_SUPPORT: f64 = 1e-3;
+
+/// [`solve`], also returning the normal matrix's diagonal (each column's energy on `rows`); with
+/// `support` (that diagonal on all the data), columns under MIN_FOLD_SUPPORT of it are left at 0.
+fn solve_with(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, hat: &Hat, support: Option<&[f64]>) -> Option<(Vec<f64>, Vec<f64>)> {
     let p = d.ncols(cfg);
     let mut ata = DMatrix::<f64>::zeros(p, p);
     let mut aty = DVector::<f64>::zeros(p);
@@ -397,6 +408,16 @@ fn solve(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, ha
             ata[(a, b)] = ata[(b, a)];
         }
     }
+    let diag: Vec<f64> = (0..p).map(|a| ata[(a, a)]).collect();
+    if let Some(full) = support {
+        for a in (0..p).filter(|&a| diag[a] < MIN_FOLD_SUPPORT * full[a]) {
+            for b in 0..p {
+                ata[(a, b)] = 0.0;
+                ata[(b, a)] = 0.0;
+            }
+            aty[a] = 0.0;
+        }
+    }
     let empty: Vec<bool> = (0..p).map(|a| ata[(a, a)] == 0.0).collect();
     // tiny ridge keeps columns without data (a load absent from a fold) solvable at zero
     for a in 0..p {
@@ -414,7 +435,7 @@ fn solve(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, ha
             }
         }
     }
-    Some(x)
+    Some((x, diag))
 }
 
 fn predict(d: &Design, i: usize, tr: &Trial, t: f64, x: &[f64], cfg: &Config, hat: &Hat, buf: &mut Vec<f64>) -> f64 {
@@ -572,7 +593,7 @@ fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score
 fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score, Vec<f64>)> {
     let rows = all_rows(trials);
     let fit_rows = all_rows(fit);
-    let x = solve(d, fit, &fit_rows, cfg, hat)?;
+    let (x, full_diag) = solve_with(d, fit, &fit_rows, cfg, hat, None)?;
     let mut buf = Vec::new();
     let (mut rss, mut n) = (0.0, 0usize);
     for &(i, j) in &rows {
@@ -610,7 +631,7 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
         for s in 0..tr.segs.len() {
             let (a, b) = (tr.segs[s].t0, tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY));
             let train: Vec<(usize, usize)> = fit_rows.iter().copied().filter(|r| !(fit[0].t[r.1] >= a && fit[0].t[r.1] < b)).collect();
-            let Some(mut xk) = solve(d, fit, &train, cfg, hat) else { continue };
+            let Some((mut xk, _)) = solve_with(d, fit, &train, cfg, hat, Some(&full_diag)) else { continue };
             // the held-out step's own time-constant correction has (almost) no training data:
             // predict it with the step's fitted τ
             if cfg.tau_free && !d.prior {
@@ -630,6 +651,29 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
                 }
             }
         }
+    }
+    // a fold that predicts a unit worse than any constant inside the signal's range has not
+    // determined what that unit needs (a level held once or briefly, shape corrections running
+    // off): the model cannot be scored held out on these data
+    let (lo, hi) = trials.iter().flat_map(|tr| tr.v.iter().copied()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    let range = (hi - lo).max(0.0);
+    let mut counts: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
+    if trials.len() >= 2 {
+        for (k, tr) in trials.iter().enumerate() {
+            let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
+            for &t in tr.t.iter().filter(|&&t| t >= t_first - 0.2) {
+                *counts.entry((k, seg_of(tr, t))).or_default() += 1;
+            }
+        }
+    } else {
+        let tr = &trials[0];
+        for (s, sg) in tr.segs.iter().enumerate() {
+            let b = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+            counts.insert((0, s), tr.t.iter().filter(|&&t| t >= sg.t0 && t < b).count());
+        }
+    }
+    if units.iter().any(|(k, &e)| !(e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt().is_finite() || (e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt() > range) {
+        return None;
     }
     let unit_keys = units.keys().copied().collect();
     Some((Score { rmse: (rss / n.max(1) as f64).sqrt(), heldout_rmse: (hss / hn.max(1) as f64).sqrt(), bic, params: p, n, units: units.into_values().collect(), unit_keys }, x))
