@@ -109,13 +109,13 @@ fn analyze_stage(report: &analyze::Report, prep: &analyze::Prepared, method: Met
 /// Where the simulated load comes from.
 pub fn preload_from_manifest(path: &Path) -> Result<f64> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e).io_as_input("(file)", "check the path given to --rig (the out/manifest.json a build wrote)"))?;
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::input(&path.display().to_string(), "(json)", "invalid", format!("not a tipforge manifest: {e}")))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| Error::input(path.display().to_string(), "(json)", "invalid", format!("not a tipforge manifest: {e}")))?;
     v.get("rigs")
         .and_then(|r| r.as_object())
         .and_then(|o| o.values().next())
         .and_then(|r| r.get("preload_g"))
         .and_then(|p| p.as_f64())
-        .ok_or_else(|| Error::input(&path.display().to_string(), "rigs.*.preload_g", "missing", "the manifest has no rig: run `tipforge build` with params/rig.toml first"))
+        .ok_or_else(|| Error::input(path.display().to_string(), "rigs.*.preload_g", "missing", "the manifest has no rig: run `tipforge build` with params/rig.toml first"))
 }
 
 /// Cover thickness and mix ratio from a mold file's `[cover]` table, and the dome diameter from
@@ -169,7 +169,7 @@ pub fn load_protocol(path: &Path) -> Result<ProtocolParams> {
 pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
     let mut g = Gather::default();
     if spec.out.is_dir() {
-        g.take::<()>(Err(Error::input(&spec.out.display().to_string(), "-o", spec.out.display(), "is a folder: give -o the recording's file name, e.g. sim/rec.csv")))?;
+        g.take::<()>(Err(Error::input(spec.out.display().to_string(), "-o", spec.out.display(), "is a folder: give -o the recording's file name, e.g. sim/rec.csv")))?;
     } else if let Some(dir) = spec.out.parent() {
         g.take(crate::export::check_out_dir(dir, "-o", "give -o a file name in a folder (the folder is created if missing)"))?;
     }

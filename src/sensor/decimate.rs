@@ -28,7 +28,7 @@ pub struct Raw {
 /// time and response over whole blocks of samples, the protocol at each block's last sample.
 pub fn to_working_rate(rec: Recording) -> Recording {
     let rate = rec.sample_rate_hz();
-    if !(rate > MAX_WORKING_HZ) || rec.len() < 2 {
+    if rate.is_nan() || rate <= MAX_WORKING_HZ || rec.len() < 2 {
         return rec;
     }
     let block = (rate / WORKING_HZ).floor().max(1.0) as usize;

@@ -70,7 +70,7 @@ fn fit_problems(paths: &[&Path], recs: &[Recording], steps: &[Vec<Step>]) -> Vec
                 if !(same(x.before, s.before) && same(x.after, s.after)) {
                     out.push(Problem::new(
                         &recs[i].source,
-                        &format!("{} ({unit})", name(s)),
+                        format!("{} ({unit})", name(s)),
                         format!("{} → {}", s.before, s.after),
                         format!(
                             "{} goes {} → {} in {}: recordings fitted together must repeat one protocol (their steps are pooled by place); fit them separately",
@@ -129,7 +129,7 @@ fn diagnose_problems(recs: &[Recording], steps: &[Vec<Step>], protocol_ok: bool)
                 "with one recording the diagnosis predicts each step from the other steps, and no other step reaches or leaves these levels: record the unloading too, or give more recordings of the protocol"
             };
             let list = unseen.iter().map(|l| l.to_string()).collect::<Vec<_>>().join(", ");
-            out.push(Problem::new(&recs[i].source, &format!("levels ({unit})"), list, how));
+            out.push(Problem::new(&recs[i].source, format!("levels ({unit})"), list, how));
         }
     }
     out
