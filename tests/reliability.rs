@@ -184,3 +184,34 @@ fn a_recording_too_short_to_hold_out_is_an_input_error() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Issue 17: a run longer than about 2 s shows progress on stderr when stderr is a terminal, and
+/// prints nothing there when it is not (a pipe, a log file).
+#[test]
+fn progress_shows_on_a_terminal_only() {
+    let d = dir("progress");
+    let args = |name: &str| {
+        vec![
+            "simulate".to_string(),
+            "--protocol".into(),
+            "params/protocol-1000g.toml".into(),
+            "--trials".into(),
+            "200".into(),
+            "-o".into(),
+            d.join(name).display().to_string(),
+        ]
+    };
+    let o = Command::new(env!("CARGO_BIN_EXE_tipforge")).args(args("piped.csv")).output().unwrap();
+    assert_eq!(o.status.code(), Some(0));
+    assert!(o.stderr.is_empty(), "{}", String::from_utf8_lossy(&o.stderr));
+    // a terminal, through util-linux's `script` (skipped where it is missing)
+    let cmd = std::iter::once(env!("CARGO_BIN_EXE_tipforge").to_string()).chain(args("tty.csv")).collect::<Vec<_>>().join(" ");
+    match Command::new("script").args(["-qec", &cmd, "/dev/null"]).output() {
+        Ok(o) if o.status.success() => {
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert!(text.contains("simulate [") && text.contains("trial "), "{text}");
+        }
+        _ => eprintln!("skipped the terminal half: no `script`"),
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
