@@ -75,11 +75,11 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Resul
     for s in &report.steps {
         let mut l = format!("{:?} step {} ({} → {}), {} trial(s):", s.phase, s.index + 1, s.before, s.after, s.trials);
         if let Some(f) = &s.lsq {
-            l += &format!(" lsq k = {:.4} ± {:.4} {}", f.k, f.se_k, report.unit);
-            if let Some(kw) = s.lsq_k_per_weight {
+            l += &format!(" lsq k = {}", estimate(f.k, f.se_k, 4, &report.unit));
+            if let Some(kw) = s.lsq_k_per_weight.filter(|x| x.is_finite()) {
                 l += &format!(" ({:.4} {} per {})", kw, report.unit, s.weight_unit);
             }
-            l += &format!(", τ = {:.3} ± {:.3} s", f.tau_s, f.se_tau_s);
+            l += &format!(", τ = {}", estimate(f.tau_s, f.se_tau_s, 3, "s"));
             if let Some(e) = s.lsq_eq4 {
                 l += &format!(", Eq.4 {e:.4}");
             }
@@ -104,6 +104,19 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Resul
 fn analyze_stage(report: &analyze::Report, prep: &analyze::Prepared, method: Method, out: &Path) -> Result<Vec<PathBuf>> {
     let lock = crate::export::outdir::OutLock::acquire(out)?;
     super::output::stage(report, prep, method, out).commit(&lock)
+}
+
+/// A fitted value with its standard error; a value the data do not determine (no finite error,
+/// or an error over 10 × the value) is said to be so instead of printing NaN or 10^14.
+fn estimate(v: f64, se: f64, digits: usize, unit: &str) -> String {
+    if !v.is_finite() {
+        return "not determined".into();
+    }
+    if se.is_finite() && se <= 10.0 * v.abs() {
+        format!("{v:.digits$} ± {se:.digits$} {unit}")
+    } else {
+        format!("{v:.digits$} {unit} (not determined by the data: the response hardly moves at this step)")
+    }
 }
 
 /// Where the simulated load comes from.
