@@ -372,9 +372,9 @@ fn solve(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, ha
     solve_with(d, trials, rows, cfg, hat, None).map(|(x, _)| x)
 }
 
-/// A column holding less than this share of its energy on all the data is not determined by a
-/// fold's training rows: it is left at zero there (the held-out step's own τ, onset shift or
-/// term columns, whatever the penalty would leave otherwise).
+/// A shape or term column holding less than this share of its energy on all the data is not
+/// determined by a fold's training rows: it is left at zero there (the held-out step's own τ,
+/// onset shift or term columns, whatever the penalty would leave otherwise).
 const MIN_FOLD_SUPPORT: f64 = 1e-3;
 
 /// [`solve`], also returning the normal matrix's diagonal (each column's energy on `rows`); with
@@ -410,7 +410,9 @@ fn solve_with(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Confi
     }
     let diag: Vec<f64> = (0..p).map(|a| ata[(a, a)]).collect();
     if let Some(full) = support {
-        for a in (0..p).filter(|&a| diag[a] < MIN_FOLD_SUPPORT * full[a]) {
+        // levels are kept: a level seen only in another step's transient is still better
+        // estimated from it than set to zero (a top load held once, on long holds)
+        for a in (d.n_levels()..p).filter(|&a| diag[a] < MIN_FOLD_SUPPORT * full[a]) {
             for b in 0..p {
                 ata[(a, b)] = 0.0;
                 ata[(b, a)] = 0.0;
