@@ -42,6 +42,10 @@ enum Cmd {
         /// Turn off the paper's 10-sample mean filter.
         #[arg(long)]
         no_filter: bool,
+        /// The loads were applied by a machine, not by hand: exclude no handling spikes
+        /// (a recording can say so itself with a `# loading=actuator` line).
+        #[arg(long)]
+        actuator: bool,
     },
     /// Where simulation and recordings differ: locate the mismatch, name the physics left out,
     /// model it, refit, and show the held-out improvement.
@@ -140,14 +144,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             say!("wrote {} file(s)", report.written.len());
             Ok(())
         }
-        Cmd::Fit { recordings, method, out, no_filter } => {
+        Cmd::Fit { recordings, method, out, no_filter, actuator } => {
             use tipforge::sensor::analyze::Method;
             let m = match method {
                 MethodArg::Paper => Method::Paper,
                 MethodArg::Lsq => Method::Lsq,
                 MethodArg::Both => Method::Both,
             };
-            let s = tipforge::sensor::cli::fit(&recordings, m, !no_filter, &out)?;
+            let s = tipforge::sensor::cli::fit(&recordings, m, !no_filter, actuator, &out)?;
             for l in &s.lines {
                 say!("{l}");
             }

@@ -14,9 +14,16 @@ use std::path::{Path, PathBuf};
 #[derive(Default)]
 pub struct Staged {
     files: Vec<(PathBuf, Vec<u8>)>,
+    /// The folder holds one run's outputs: the previous run's files that this run does not write
+    /// are removed, and `tipforge-run.json` lists what this run wrote (fit, diagnose).
+    whole_run: bool,
 }
 
 impl Staged {
+    /// Files that make up the whole content of their output folder (see [`outdir::RUN_MANIFEST`]).
+    pub fn whole_run() -> Staged {
+        Staged { files: Vec::new(), whole_run: true }
+    }
     pub fn add(&mut self, path: PathBuf, bytes: Vec<u8>) {
         self.files.push((path, bytes));
     }
@@ -29,7 +36,11 @@ impl Staged {
                 return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::AlreadyExists, "two outputs of this run have this name; nothing was written")));
             }
         }
-        outdir::commit(lock, &self.files)
+        if self.whole_run {
+            outdir::commit_run(lock, self.files)
+        } else {
+            outdir::commit(lock, &self.files, &[])
+        }
     }
 }
 

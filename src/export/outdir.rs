@@ -51,10 +51,55 @@ impl OutLock {
     }
 }
 
+/// The list of what the last whole run into a folder wrote (fit, diagnose): path relative to the
+/// folder, bytes and SHA-256 of each file. A reader that trusts only what it lists, with these
+/// checksums, reads one run's set; the next run removes the files it lists and does not write.
+pub const RUN_MANIFEST: &str = "tipforge-run.json";
+
 #[derive(serde::Serialize, serde::Deserialize)]
 struct Journal {
     /// (temporary, final) paths relative to the output folder.
     renames: Vec<(PathBuf, PathBuf)>,
+    /// Outputs of the previous run that this one does not write, relative to the folder.
+    #[serde(default)]
+    removes: Vec<PathBuf>,
+}
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct RunManifest {
+    schema: String,
+    files: Vec<RunFile>,
+}
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct RunFile {
+    path: PathBuf,
+    bytes: usize,
+    sha256: String,
+}
+
+/// Commits `files` as the whole content of the locked folder: the previous run's outputs that
+/// this run does not write are removed in the same commit, and the run manifest is written last.
+pub fn commit_run(lock: &OutLock, mut files: Vec<(PathBuf, Vec<u8>)>) -> Result<Vec<PathBuf>> {
+    let dir = lock.dir().to_path_buf();
+    let rel = |p: &Path| p.strip_prefix(&dir).map(Path::to_path_buf).unwrap_or_else(|_| p.to_path_buf());
+    let listed: Vec<RunFile> = files.iter().map(|(p, b)| RunFile { path: rel(p), bytes: b.len(), sha256: super::manifest::sha256_hex(b) }).collect();
+    let previous: Vec<PathBuf> = std::fs::read(dir.join(RUN_MANIFEST))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<RunManifest>(&b).ok())
+        .map(|m| m.files.into_iter().map(|f| f.path).collect())
+        .unwrap_or_default();
+    // only plain relative paths inside the folder are ever removed
+    let stale: Vec<PathBuf> = previous
+        .into_iter()
+        .filter(|p| p.components().all(|c| matches!(c, std::path::Component::Normal(_))) && !listed.iter().any(|f| &f.path == p))
+        .collect();
+    let mut text = serde_json::to_string_pretty(&RunManifest { schema: "tipforge.run/1".into(), files: listed }).expect("run manifest json");
+    text.push('\n');
+    files.push((dir.join(RUN_MANIFEST), text.into_bytes()));
+    let mut written = commit(lock, &files, &stale)?;
+    written.pop();
+    Ok(written)
 }
 
 /// Finishes the commit of an interrupted run (its journal), then removes the temporaries left in
@@ -68,6 +113,9 @@ fn recover(dir: &Path) -> Result<()> {
                 if tmp.exists() {
                     std::fs::rename(&tmp, &fin).map_err(|e| Error::io(&fin, e))?;
                 }
+            }
+            for r in &j.removes {
+                let _ = std::fs::remove_file(dir.join(r));
             }
         }
         std::fs::remove_file(&jpath).map_err(|e| Error::io(&jpath, e))?;
@@ -101,8 +149,9 @@ fn tmp_name(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.{}-{n}{TMP_SUFFIX}", std::process::id()))
 }
 
-/// Writes `files` into the locked folder as one set (see the module's comment).
-pub fn commit(lock: &OutLock, files: &[(PathBuf, Vec<u8>)]) -> Result<Vec<PathBuf>> {
+/// Writes `files` into the locked folder as one set, removing `removes` (relative to the folder)
+/// in the same commit (see the module's comment).
+pub fn commit(lock: &OutLock, files: &[(PathBuf, Vec<u8>)], removes: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let dir = lock.dir();
     let rel = |p: &Path| -> Result<PathBuf> {
         p.strip_prefix(dir).map(Path::to_path_buf).or_else(|_| if dir == Path::new(".") { Ok(p.to_path_buf()) } else { Err(()) }).map_err(|_| {
@@ -135,7 +184,7 @@ pub fn commit(lock: &OutLock, files: &[(PathBuf, Vec<u8>)]) -> Result<Vec<PathBu
     // the journal makes the set whole from here on: a run killed during the renames is finished
     // by the next one
     let jtmp = tmp_name(&dir.join(JOURNAL_FILE));
-    let jbytes = serde_json::to_vec(&Journal { renames }).expect("journal json");
+    let jbytes = serde_json::to_vec(&Journal { renames, removes: removes.to_vec() }).expect("journal json");
     if let Err(e) = std::fs::write(&jtmp, jbytes).and_then(|_| std::fs::rename(&jtmp, dir.join(JOURNAL_FILE))) {
         let _ = std::fs::remove_file(&jtmp);
         clean(&temps);
@@ -150,6 +199,9 @@ pub fn commit(lock: &OutLock, files: &[(PathBuf, Vec<u8>)]) -> Result<Vec<PathBu
         }
         std::fs::rename(tmp, path).map_err(|e| Error::io(path, e))?;
         done.push(path.clone());
+    }
+    for r in removes {
+        let _ = std::fs::remove_file(dir.join(r));
     }
     std::fs::remove_file(dir.join(JOURNAL_FILE)).map_err(|e| Error::io(dir.join(JOURNAL_FILE), e))?;
     Ok(done)
@@ -174,7 +226,7 @@ mod tests {
         // killed after the journal and one of two renames
         std::fs::write(d.join(".manifest.json.7-1.tmp-tipforge"), b"new m").unwrap();
         std::fs::write(d.join("a.stl"), b"new a").unwrap();
-        let j = Journal { renames: vec![(".a.stl.7-0.tmp-tipforge".into(), "a.stl".into()), (".manifest.json.7-1.tmp-tipforge".into(), "manifest.json".into())] };
+        let j = Journal { renames: vec![(".a.stl.7-0.tmp-tipforge".into(), "a.stl".into()), (".manifest.json.7-1.tmp-tipforge".into(), "manifest.json".into())], removes: vec![] };
         std::fs::write(d.join(JOURNAL_FILE), serde_json::to_vec(&j).unwrap()).unwrap();
         // and a run killed before its journal
         std::fs::write(d.join(".a.stl.9-0.tmp-tipforge"), b"partial").unwrap();
@@ -183,10 +235,27 @@ mod tests {
         assert_eq!(std::fs::read(d.join("a.stl")).unwrap(), b"new a");
         assert!(!d.join(JOURNAL_FILE).exists());
         assert!(std::fs::read_dir(&d).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().ends_with(TMP_SUFFIX)));
-        let w = commit(&lock, &[(d.join("b.stl"), b"b".to_vec()), (d.join("truth").join("b.json"), b"{}".to_vec())]).unwrap();
+        let w = commit(&lock, &[(d.join("b.stl"), b"b".to_vec()), (d.join("truth").join("b.json"), b"{}".to_vec())], &[]).unwrap();
         assert_eq!(w.len(), 2);
         assert_eq!(std::fs::read(d.join("truth").join("b.json")).unwrap(), b"{}");
         assert!(!d.join(JOURNAL_FILE).exists());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn a_whole_run_replaces_the_previous_runs_outputs_and_nothing_else() {
+        let d = tmpdir("run");
+        let lock = OutLock::acquire(&d).unwrap();
+        std::fs::write(d.join("mine.txt"), b"the user's").unwrap();
+        commit_run(&lock, vec![(d.join("table-paper.md"), b"p".to_vec()), (d.join("plots").join("a.png"), b"a".to_vec())]).unwrap();
+        let w = commit_run(&lock, vec![(d.join("table-lsq.md"), b"l".to_vec()), (d.join("plots").join("b.png"), b"b".to_vec())]).unwrap();
+        assert_eq!(w.len(), 2);
+        assert!(!d.join("table-paper.md").exists() && !d.join("plots").join("a.png").exists());
+        assert!(d.join("table-lsq.md").exists() && d.join("plots").join("b.png").exists());
+        assert_eq!(std::fs::read(d.join("mine.txt")).unwrap(), b"the user's");
+        let m: RunManifest = serde_json::from_slice(&std::fs::read(d.join(RUN_MANIFEST)).unwrap()).unwrap();
+        assert_eq!(m.files.iter().map(|f| f.path.clone()).collect::<Vec<_>>(), vec![PathBuf::from("table-lsq.md"), PathBuf::from("plots/b.png")]);
+        assert_eq!(m.files[0].sha256, crate::export::manifest::sha256_hex(b"l"));
         let _ = std::fs::remove_dir_all(&d);
     }
 
@@ -201,7 +270,7 @@ mod tests {
     fn a_file_outside_the_locked_folder_is_refused_and_nothing_is_written() {
         let d = tmpdir("outside");
         let lock = OutLock::acquire(&d.join("out")).unwrap();
-        let e = commit(&lock, &[(d.join("out").join("a"), vec![1]), (d.join("elsewhere"), vec![2])]).unwrap_err();
+        let e = commit(&lock, &[(d.join("out").join("a"), vec![1]), (d.join("elsewhere"), vec![2])], &[]).unwrap_err();
         assert!(e.to_string().contains("outside the locked output folder"), "{e}");
         assert!(!d.join("out").join("a").exists());
         let _ = std::fs::remove_dir_all(&d);

@@ -40,13 +40,14 @@ pub struct FitSummary {
     pub written: Vec<PathBuf>,
 }
 
-pub fn fit(paths: &[PathBuf], method: Method, filter: bool, out: &Path) -> Result<FitSummary> {
+pub fn fit(paths: &[PathBuf], method: Method, filter: bool, actuator: bool, out: &Path) -> Result<FitSummary> {
     let mut g = Gather::default();
     g.take(out_dir(out))?;
     let bar = Progress::new("fit", paths.len() + 2);
     let recs = g.take(read_all(paths, Some(&bar)))?;
     let mut opts = Options { method, ..Options::default() };
     opts.pre.mean_filter = filter;
+    opts.pre.handling = !actuator;
     if let Some(r) = &recs {
         g.0.extend(super::pooling::problems(paths, r, &opts.pre, false));
     }

@@ -64,7 +64,7 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
 }
 
 pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
-    let mut st = Staged::default();
+    let mut st = Staged::whole_run();
     let mut json = serde_json::to_string_pretty(d).expect("diagnosis serialises");
     json.push('\n');
     st.add(dir.join("diagnosis.json"), json.into_bytes());

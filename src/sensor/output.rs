@@ -75,7 +75,7 @@ pub fn fashion_charts(report: &Report) -> Vec<Chart> {
 
 /// Stages every output of `tipforge fit` under `dir`.
 pub fn stage(report: &Report, prep: &Prepared, method: Method, dir: &Path) -> Staged {
-    let mut st = Staged::default();
+    let mut st = Staged::whole_run();
     let mut json = serde_json::to_string_pretty(report).expect("report serialises");
     json.push('\n');
     st.add(dir.join("report.json"), json.into_bytes());
