@@ -104,6 +104,9 @@ pub fn noise_sigma(v: &[f64]) -> f64 {
     1.4826 * median(&mut d) / std::f64::consts::SQRT_2
 }
 
+/// The span (s) over which the spike detector measures the local noise.
+pub const LOCAL_NOISE_S: f64 = 5.0;
+
 /// Handling spikes: short excursions from a running median (edge-preserving, so monotone steps
 /// and relaxations are not flagged). Returns windows and a per-sample mask (true = keep).
 pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bool>) {
@@ -139,11 +142,30 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
         }
     };
     let sigma = (1.4826 * mad).max(diff_sigma).max(1e-12);
-    let thr = (opts.spike_sigma * sigma) as f32;
+    // the noise where a sample is: a resistance read without its divider has a noise that grows
+    // with the resistance (tens of times larger unloaded than loaded), and one threshold for the
+    // whole recording would take the unloaded noise for spikes. Robust σ of the residuals per
+    // block of LOCAL_NOISE_S, the largest of a block and its neighbours (a step may sit at a
+    // block's edge), never below the recording's own σ
+    let block = samples(LOCAL_NOISE_S).max(16);
+    let local: Vec<f32> = resid
+        .chunks(block)
+        .map(|c| {
+            let mut a: Vec<f32> = c.iter().map(|r| r.abs()).collect();
+            let k = a.len() / 2;
+            1.4826 * *a.select_nth_unstable_by(k, |x, y| x.total_cmp(y)).1
+        })
+        .collect();
+    let thr_at = |i: usize| -> f32 {
+        let b = i / block;
+        let near = local[b.saturating_sub(1)].max(local[b]).max(local[(b + 1).min(local.len() - 1)]);
+        (opts.spike_sigma as f32) * near.max(sigma as f32)
+    };
     let mut mask = vec![true; n];
     let mut windows = Vec::new();
     let mut i = 0;
     while i < n {
+        let thr = thr_at(i);
         if resid[i].abs() <= thr {
             i += 1;
             continue;
@@ -305,6 +327,32 @@ mod tests {
             ignored_columns: vec![],
             raw: None,
         }
+    }
+
+    /// A resistance read without its divider: the noise is 10 times larger unloaded than loaded.
+    /// With one threshold for the whole recording the unloaded noise was taken for handling
+    /// spikes; against the local noise it is not (and a real spike still is).
+    #[test]
+    fn load_dependent_noise_is_not_taken_for_spikes() {
+        let n = 6000;
+        let mut seed = 12345u64;
+        let mut gauss = || {
+            let mut u = || {
+                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let (a, b) = (u(), u());
+            (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+        };
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
+        let mut v: Vec<f64> = t.iter().map(|&x| if x < 30.0 { 50_000.0 + 100.0 * gauss() } else { 5_000.0 + 10.0 * gauss() }).collect();
+        let (w, _) = spikes(&t, &v, &Options::default());
+        assert!(w.is_empty(), "{} false spikes, e.g. {:?}", w.len(), w.first());
+        for x in v.iter_mut().skip(4500).take(10) {
+            *x += 2_000.0;
+        }
+        let (w, _) = spikes(&t, &v, &Options::default());
+        assert_eq!(w.len(), 1, "{w:?}");
     }
 
     #[test]
