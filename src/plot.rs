@@ -79,9 +79,18 @@ fn line(cv: &mut Canvas, (x0, y0): (f64, f64), (x1, y1): (f64, f64), c: [u8; 3],
     }
 }
 
+/// Rows of a chart's header, from the chart's top: the title (5×7 font at 2 px, 14 px high), the
+/// y axis' unit label under it (at 1 px, 7 px high), then the plot area. Each starts below the
+/// previous one's last row, so the unit never runs into the title.
+const TITLE_Y: usize = 6;
+const UNIT_Y: usize = TITLE_Y + 14 + 4;
+const PLOT_TOP: usize = UNIT_Y + 7 + 5;
+
 fn draw(cv: &mut Canvas, ch: &Chart, ox: usize, oy: usize, w: usize, h: usize) {
-    let (l, r, t, b) = (ox + 78, ox + w - 12, oy + 30, oy + h - 40);
-    text(cv, &ch.title, ox + 10, oy + 8, 2);
+    let (l, r, t, b) = (ox + 78, ox + w - 12, oy + PLOT_TOP, oy + h - 40);
+    // a title wider than its panel at 2 px is drawn at 1 px (it ran into the next panel's)
+    let title_px = if 10 + ch.title.chars().count() * 12 <= w { 2 } else { 1 };
+    text(cv, &ch.title, ox + 10, oy + TITLE_Y, title_px);
     let pts = ch.series.iter().flat_map(|s| s.x.iter().zip(&s.y)).filter(|(x, y)| x.is_finite() && y.is_finite());
     let (mut xmin, mut xmax, mut ymin, mut ymax) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
     for (x, y) in pts {
@@ -125,7 +134,7 @@ fn draw(cv: &mut Canvas, ch: &Chart, ox: usize, oy: usize, w: usize, h: usize) {
         line(cv, (a.0 as f64, a.1 as f64), (z.0 as f64, z.1 as f64), [60, 60, 60], (0, 0, usize::MAX, usize::MAX));
     }
     text(cv, &ch.x_label, (l + r) / 2 - ch.x_label.len() * 6, b + 20, 2);
-    text(cv, &ch.y_label, ox + 4, t.saturating_sub(12), 1);
+    text(cv, &ch.y_label, ox + 4, oy + UNIT_Y, 1);
     for s in &ch.series {
         match s.style {
             Style::Line => {
@@ -179,6 +188,14 @@ pub fn render(charts: &[Chart], cols: usize, pw: usize, ph: usize) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 16, item 4: the unit label sat over the title ("ᵥLOADING 1"). Title, unit and plot
+    /// area are stacked without overlap.
+    #[test]
+    fn the_unit_label_does_not_overlap_the_title() {
+        let (title_end, unit_end) = (TITLE_Y + 7 * 2, UNIT_Y + 7);
+        assert!(title_end < UNIT_Y && unit_end < PLOT_TOP, "title ends {title_end}, unit {UNIT_Y}..{unit_end}, plot {PLOT_TOP}");
+    }
 
     #[test]
     fn ticks_are_round_and_cover_the_range() {
