@@ -12,6 +12,9 @@ pub struct Part {
     /// Number of through holes the part must have (its genus).
     pub expected_genus: i32,
     pub density_g_cm3: f64,
+    /// How the part is made: printed in PLA (its STL lies on the bed in its print orientation) or
+    /// cast in PDMS (it keeps the frame of the part it covers).
+    pub process: Process,
     /// Fraction of the volume printed solid (1.0 = 100 % infill).
     pub infill: f64,
     /// Whether to write a 3MF beside the STL.
@@ -20,6 +23,24 @@ pub struct Part {
     pub features: Value,
     /// Extra manifest entries (preload, material estimates, …).
     pub extra: Map<String, Value>,
+}
+
+/// How a part is made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Process {
+    /// Printed without support, in the orientation its file is written in, resting on z = 0.
+    Printed,
+    /// Cast in a mold; written in the frame of the part it fits.
+    Cast,
+}
+
+impl Process {
+    pub fn name(self) -> &'static str {
+        match self {
+            Process::Printed => "printed",
+            Process::Cast => "cast",
+        }
+    }
 }
 
 impl Part {

@@ -39,6 +39,7 @@ pub(crate) mod tests {
             solid,
             expected_genus: genus,
             density_g_cm3: 1.0,
+            process: crate::part::Process::Printed,
             infill: 1.0,
             write_3mf: true,
             features: serde_json::Value::Null,

@@ -24,6 +24,11 @@ pub fn entry(part: &Part, source: &str, source_sha256: &str, files: &[String]) -
     m.insert("mass_g".into(), json!(round(part.mass_g(), 4)));
     m.insert("density_g_cm3".into(), json!(part.density_g_cm3));
     m.insert("infill".into(), json!(part.infill));
+    m.insert("process".into(), json!(part.process.name()));
+    if part.process == crate::part::Process::Printed {
+        // every printed part is designed to print without support in the orientation it is written in
+        m.insert("supports".into(), json!("none"));
+    }
     m.insert(
         "bbox_mm".into(),
         json!({"min": lo.map(|v| round(v, 4)), "max": hi.map(|v| round(v, 4)), "size": [round(hi[0]-lo[0], 4), round(hi[1]-lo[1], 4), round(hi[2]-lo[2], 4)]}),

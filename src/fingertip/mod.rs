@@ -540,6 +540,7 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
         solid,
         expected_genus: 2 * m.holes.len() as i32,
         density_g_cm3: p.print.density_g_cm3,
+        process: crate::part::Process::Printed,
         infill: 1.0,
         write_3mf: true,
         features: json!({

@@ -211,6 +211,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         solid,
         expected_genus: genus,
         density_g_cm3: p.mold.density_g_cm3,
+        process: crate::part::Process::Printed,
         infill: 1.0,
         write_3mf: true,
         features: json!({
@@ -246,6 +247,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         solid: cover_print,
         expected_genus: 0,
         density_g_cm3: p.cover.density_g_cm3,
+        process: crate::part::Process::Cast,
         infill: 1.0,
         write_3mf: false,
         features: json!({

@@ -206,6 +206,7 @@ pub fn build(p: &RigParams) -> Result<Built> {
         solid: base.clone(),
         expected_genus: 1,
         density_g_cm3: p.print.density_g_cm3,
+        process: crate::part::Process::Printed,
         infill: p.infill,
         write_3mf: true,
         features: json!({
@@ -227,6 +228,7 @@ pub fn build(p: &RigParams) -> Result<Built> {
         solid: plunger_print,
         expected_genus: 0,
         density_g_cm3: p.print.density_g_cm3,
+        process: crate::part::Process::Printed,
         infill: p.infill,
         write_3mf: true,
         features: json!({
