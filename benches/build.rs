@@ -50,7 +50,7 @@ fn main() {
         .iter()
         .map(|n| {
             let src = tipforge::params::read_source(std::path::Path::new(&format!("params/{n}.toml"))).unwrap();
-            tipforge::params::mold::MoldParams::from_source(&src, n, std::path::Path::new("params")).unwrap()
+            tipforge::mold::load(&src, n, std::path::Path::new("params")).unwrap()
         })
         .collect();
     for _ in 0..runs {

@@ -72,26 +72,60 @@ pub fn part_files(dir: &Path) -> Result<Vec<PathBuf>> {
 /// Files in the params folder that are not part files, each with the reason.
 pub type Skipped = Vec<(String, &'static str)>;
 
+/// Whether a PART argument is a path (`params/fingertip-1s.toml`, `../lab/my.toml`) rather than a
+/// stem of a file in the params folder (`fingertip-1s`).
+fn is_path(arg: &str) -> bool {
+    arg.ends_with(".toml") || arg.contains('/') || arg.contains(std::path::MAIN_SEPARATOR)
+}
+
+/// The files to build: every `.toml` in the params folder, or the PART arguments, each a stem of a
+/// file there or a path. The flag says whether the files were named one by one.
+fn files_to_build(opts: &Options, problems: &mut Vec<Problem>) -> Result<(Vec<PathBuf>, bool)> {
+    if opts.only.is_empty() {
+        let files = part_files(&opts.params_dir).map_err(|e| e.io_as_input("--params", "give --params the folder of parameter files (default params)"))?;
+        return Ok((files, false));
+    }
+    let mut files = Vec::new();
+    for arg in &opts.only {
+        if is_path(arg) {
+            let path = PathBuf::from(arg);
+            if path.is_file() {
+                files.push(path);
+            } else {
+                problems.push(Problem::new(arg.clone(), "PART", arg, format!("no such file: {arg}; give a parameter file's path, or the stem of a file in {}", opts.params_dir.display())));
+            }
+            continue;
+        }
+        let path = opts.params_dir.join(format!("{arg}.toml"));
+        if path.is_file() {
+            files.push(path);
+            continue;
+        }
+        let stems: Vec<String> = part_files(&opts.params_dir)
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(str::to_string))
+            .collect();
+        let known: Vec<&str> = stems.iter().map(String::as_str).collect();
+        let hint = match params::nearest(arg, &known) {
+            Some(s) => format!("did you mean `{s}`?"),
+            None if known.is_empty() => format!("{} holds no .toml files", opts.params_dir.display()),
+            None => format!("the files there are: {}", known.join(", ")),
+        };
+        problems.push(Problem::new(opts.params_dir.display().to_string(), "PART", arg, format!("no {arg}.toml in {}; {hint}", opts.params_dir.display())));
+    }
+    files.dedup();
+    Ok((files, true))
+}
+
 /// Reads and validates every part file, collecting every problem of every file.
 pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Skipped)> {
     let mut problems: Vec<Problem> = Vec::new();
     let mut loaded = Vec::new();
     let mut skipped = Vec::new();
-    let files = part_files(&opts.params_dir).map_err(|e| e.io_as_input("--params", "give --params the folder of parameter files (default params)"))?;
-    let stems: Vec<String> = files.iter().filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(str::to_string)).collect();
-    for name in opts.only.iter().filter(|n| !stems.contains(n)) {
-        let known: Vec<&str> = stems.iter().map(String::as_str).collect();
-        let hint = match params::nearest(name, &known) {
-            Some(s) => format!("did you mean `{s}`?"),
-            None => format!("the files there are: {}", known.join(", ")),
-        };
-        problems.push(Problem::new(opts.params_dir.display().to_string(), "PART", name, format!("no {}.toml in {}; {hint}", name, opts.params_dir.display())));
-    }
+    let (files, named) = files_to_build(opts, &mut problems)?;
     for path in files {
         let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("").to_string();
-        if !opts.only.is_empty() && !opts.only.contains(&stem) {
-            continue;
-        }
         let src = match params::read_source(&path) {
             Ok(s) => s,
             Err(Error::Input(p)) => {
@@ -108,7 +142,7 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Skipped)> {
             }
         };
         if !kind.is_part() {
-            if opts.only.contains(&stem) {
+            if named {
                 problems.push(src.problem(
                     "kind",
                     format!("{kind:?}").to_lowercase(),
@@ -121,9 +155,9 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Skipped)> {
         }
         let rel = path.display().to_string();
         let job = match kind {
-            Kind::Fingertip => FingertipParams::from_source(&src, &stem).map(Job::Fingertip),
+            Kind::Fingertip => crate::fingertip::load(&src, &stem).map(Job::Fingertip),
             Kind::Rig => crate::params::rig::RigParams::from_source(&src, &stem).map(Job::Rig),
-            Kind::Mold => crate::params::mold::MoldParams::from_source(&src, &stem, path.parent().unwrap_or(Path::new("."))).map(Job::Mold),
+            Kind::Mold => crate::mold::load(&src, &stem, path.parent().unwrap_or(Path::new("."))).map(Job::Mold),
             _ => {
                 skipped.push((rel, "part kind not built by this version"));
                 continue;

@@ -21,7 +21,9 @@ enum Cmd {
         /// Output folder.
         #[arg(long, short, default_value = "out")]
         out: PathBuf,
-        /// Only these parameter file stems (e.g. fingertip-1s).
+        /// Only these parameter files: stems of files in --params (fingertip-1s) or paths
+        /// (params/fingertip-1s.toml, ../lab/my-finger.toml). A mold's fingertip is read from the
+        /// mold file's own folder.
         parts: Vec<String>,
         /// Also write a shaded PNG preview of every part (out/<part>.png).
         #[arg(long)]

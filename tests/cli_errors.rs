@@ -347,3 +347,27 @@ fn a_reader_that_stops_early_is_no_panic() {
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(d.join("out/fingertip-1s.stl").exists());
 }
+
+/// `build` takes paths as well as stems; a mold's fingertip is read from the mold file's folder.
+#[test]
+fn build_takes_paths_as_well_as_stems() {
+    let d = dir("paths");
+    let lab = d.join("lab");
+    std::fs::create_dir_all(&lab).unwrap();
+    std::fs::copy("params/fingertip-1s.toml", lab.join("my-finger.toml")).unwrap();
+    std::fs::write(lab.join("my-mold.toml"), std::fs::read_to_string("params/mold-1s.toml").unwrap().replace("fingertip-1s.toml", "my-finger.toml")).unwrap();
+    let o = d.join("out");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let (code, text) = tipforge(&["build", "--out", &s(&o), "params/rig.toml", &s(&lab.join("my-finger.toml")), &s(&lab.join("my-mold.toml"))]);
+    assert_eq!(code, 0, "{text}");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(o.join("manifest.json")).unwrap()).unwrap();
+    for part in ["rig-base", "my-finger", "my-mold-core", "my-mold-shell", "my-mold-cover"] {
+        assert!(v["parts"].get(part).is_some(), "{part} missing: {}", v["parts"]);
+    }
+    // a stem and a path that do not exist: both named, exit 2, nothing written
+    let o2 = d.join("out2");
+    let (code, text) = tipforge(&["build", "--out", &s(&o2), "fingertip-1z", "../nowhere/f.toml"]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("did you mean `fingertip-1s`") && text.contains("no such file: ../nowhere/f.toml"), "{text}");
+    assert!(!o2.exists());
+}

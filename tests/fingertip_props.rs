@@ -7,7 +7,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use tipforge::error::Error;
-use tipforge::params::{fingertip::FingertipParams, SourceFile};
+use tipforge::params::SourceFile;
 
 #[derive(Debug, Clone)]
 struct Gen {
@@ -103,7 +103,7 @@ fn random_parameter_sets_build_valid_meshes_or_clear_errors() {
         .run(&gen(), |g| {
             let text = toml_of(&g);
             let src = SourceFile::parse("random.toml", text.clone()).expect("generated TOML parses");
-            match FingertipParams::from_source(&src, "random") {
+            match tipforge::fingertip::load(&src, "random") {
                 Ok(p) => {
                     let part = tipforge::fingertip::build(&p).map_err(|e| TestCaseError::fail(format!("valid params failed to build: {e}\n{text}")))?;
                     let v = tipforge::checks::run(&part);
@@ -135,7 +135,7 @@ fn corrupted_files_never_panic() {
             let end = (at..=(at + del).min(t.len())).rev().find(|&i| t.is_char_boundary(i)).unwrap_or(at);
             t.replace_range(at..end, ins);
             let r = std::panic::catch_unwind(|| match SourceFile::parse("c.toml", t.clone()) {
-                Ok(src) => FingertipParams::from_source(&src, "c").map(|p| tipforge::fingertip::build(&p).map(|_| ())).map(|_| ()),
+                Ok(src) => tipforge::fingertip::load(&src, "c").map(|p| tipforge::fingertip::build(&p).map(|_| ())).map(|_| ()),
                 Err(e) => Err(e),
             });
             prop_assert!(r.is_ok(), "panicked on:\n{}", t);

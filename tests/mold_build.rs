@@ -10,7 +10,7 @@ use tipforge::params::{mold::MoldParams, read_source};
 
 fn load(name: &str) -> MoldParams {
     let src = read_source(Path::new(&format!("params/{name}.toml"))).unwrap();
-    MoldParams::from_source(&src, name, Path::new("params")).unwrap()
+    tipforge::mold::load(&src, name, Path::new("params")).unwrap()
 }
 
 #[test]
@@ -197,7 +197,7 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
 #[test]
 fn a_mold_without_its_fingertip_is_an_input_error() {
     let src = tipforge::params::SourceFile::parse("m.toml", "kind = \"mold\"\n".into()).unwrap();
-    match MoldParams::from_source(&src, "m", Path::new("params")) {
+    match tipforge::mold::load(&src, "m", Path::new("params")) {
         Err(Error::Input(p)) => assert!(p.0.iter().any(|x| x.path == "fingertip")),
         other => panic!("{:?}", other.map(|_| ())),
     }

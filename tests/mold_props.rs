@@ -9,7 +9,7 @@ use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use tipforge::error::Error;
-use tipforge::params::{mold::MoldParams, SourceFile};
+use tipforge::params::SourceFile;
 
 #[derive(Debug, Clone)]
 struct Gen {
@@ -87,7 +87,7 @@ fn random_molds_build_and_pass_every_check_or_are_rejected_clearly() {
         .run(&gen(), |g| {
             let text = toml_of(&g);
             let src = SourceFile::parse("random-mold.toml", text.clone()).expect("generated TOML parses");
-            match MoldParams::from_source(&src, "mold-r", Path::new("params")) {
+            match tipforge::mold::load(&src, "mold-r", Path::new("params")) {
                 Ok(p) => {
                     let b = tipforge::mold::build(&p).map_err(|e| TestCaseError::fail(format!("valid mold failed to build: {e}\n{text}")))?;
                     prop_assert!(b.violations.is_empty(), "assembled-mold checks failed: {:?}\n{}", b.violations, text);

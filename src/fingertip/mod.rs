@@ -1,5 +1,6 @@
-//! Fingertip part family: `validate` checks the rules that need the body shape, `build` makes the
-//! part (body from exact surfaces, every feature cut in one boolean).
+//! Fingertip part family: `load` reads a file's parameters and applies `validate`, the rules that
+//! need the body shape; `build` makes the part (body from exact surfaces, every feature cut in one
+//! boolean).
 
 pub mod shape;
 
@@ -416,6 +417,20 @@ pub fn to_print(p: P3) -> P3 {
 }
 
 /// Builds the fingertip.
+/// Reads a fingertip file's parameters ([`crate::params`] parses and type-checks) and applies the
+/// family's geometric rules, every problem named with its line.
+pub fn load(src: &crate::params::SourceFile, default_name: &str) -> Result<FingertipParams> {
+    let p = FingertipParams::from_source(src, default_name)?;
+    rules_on(&p, src)?;
+    Ok(p)
+}
+
+/// The geometric rules as input problems of `src`, the file the parameters came from.
+pub(crate) fn rules_on(p: &FingertipParams, src: &crate::params::SourceFile) -> Result<()> {
+    let problems: Vec<_> = validate(p).into_iter().map(|(path, value, msg)| src.problem(&path, value, msg)).collect();
+    crate::params::finish(Some(()), problems)
+}
+
 pub fn build(p: &FingertipParams) -> Result<Part> {
     let name = p.name.as_str();
     let shape = Shape::new(&p.body);

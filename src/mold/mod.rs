@@ -1,4 +1,5 @@
-//! PDMS cover molds. `validate` checks the rules that need the fingertip's shape; `build` makes the
+//! PDMS cover molds. `load` reads a mold file and its fingertip and applies both families' rules
+//! (`validate` here checks the rules that need the fingertip's shape); `build` makes the
 //! pieces and the cast cover; `checks` proves the assembled mold before anything is written.
 //!
 //! Conforming style: the cavity lies between a core (the fingertip's pad with its flat seats and
@@ -449,6 +450,16 @@ pub fn notes(name: &str, mat: &Value) -> Vec<String> {
         ),
         format!("{name}: {} mold — {}", mat["mold_material"].as_str().unwrap_or(""), mat["cure_advice"].as_str().unwrap_or("")),
     ]
+}
+
+/// Reads a mold file and the fingertip file it names (relative to `dir`): [`crate::params`]
+/// parses and type-checks both, then the fingertip's rules (named on the fingertip file's lines)
+/// and, when they hold, the mold's rules are applied.
+pub fn load(src: &crate::params::SourceFile, default_name: &str, dir: &std::path::Path) -> crate::error::Result<MoldParams> {
+    let p = MoldParams::from_source(src, default_name, dir)?;
+    fingertip::rules_on(&p.fingertip, &p.fingertip_src)?;
+    let problems: Vec<_> = validate(&p).into_iter().map(|(path, value, msg)| src.problem(&path, value, msg)).collect();
+    crate::params::finish(Some(p), problems)
 }
 
 /// Builds a mold file's parts.

@@ -153,9 +153,9 @@ pub fn print_params(c: &mut Collector, p: &RawPrint, min_wall_default: f64) -> O
 }
 
 impl FingertipParams {
-    /// Parses and validates a fingertip file, collecting every problem. Geometric rules that need
-    /// the body shape (seat on the pad, walls, hole clearances) are checked in
-    /// [`crate::fingertip::validate`], and their problems are added here too.
+    /// Parses and type-checks a fingertip file, collecting every problem. The geometric rules that
+    /// need the body shape (seat on the pad, walls, hole clearances) live with the family and are
+    /// applied by [`crate::fingertip::load`].
     pub fn from_source(src: &SourceFile, default_name: &str) -> Result<FingertipParams> {
         let mut c = Collector::new(src);
         c.problems.extend(src.unknown_keys(&SCHEMA));
@@ -173,13 +173,6 @@ impl FingertipParams {
             return super::finish(None, c.problems);
         };
         let v = validate_raw(&mut c, name, &body, &sensors, &mount, &print);
-        if let Some(p) = &v {
-            if c.problems.is_empty() {
-                for (path, value, msg) in crate::fingertip::validate(p) {
-                    c.push(&path, value, msg);
-                }
-            }
-        }
         super::finish(v, c.problems)
     }
 }

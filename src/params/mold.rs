@@ -134,6 +134,8 @@ pub struct MoldParams {
     /// The fingertip file as written in the mold file, and its validated parameters.
     pub fingertip_file: String,
     pub fingertip: FingertipParams,
+    /// The fingertip file's text, so that the fingertip's own rules name its lines.
+    pub fingertip_src: SourceFile,
     pub style: Style,
     pub cover: Cover,
     pub mold: Mold,
@@ -149,8 +151,9 @@ impl MoldParams {
         }
     }
 
-    /// Parses and validates a mold file and the fingertip file it names (relative to `dir`, the
-    /// mold file's folder). Every problem of both files is collected.
+    /// Parses and type-checks a mold file and the fingertip file it names (relative to `dir`, the
+    /// mold file's folder). Every problem of both files is collected. The geometric rules of both
+    /// live with their families and are applied by [`crate::mold::load`].
     pub fn from_source(src: &SourceFile, default_name: &str, dir: &Path) -> Result<MoldParams> {
         let mut c = Collector::new(src);
         c.problems.extend(src.unknown_keys(&SCHEMA));
@@ -180,7 +183,7 @@ impl MoldParams {
                         Ok(super::Kind::Fingertip) => {
                             let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("fingertip").to_string();
                             match FingertipParams::from_source(&fsrc, &stem) {
-                                Ok(p) => Some((f.clone(), p)),
+                                Ok(p) => Some((f.clone(), p, fsrc.clone())),
                                 Err(Error::Input(p)) => {
                                     c.problems.extend(p.0);
                                     None
@@ -224,18 +227,11 @@ impl MoldParams {
         let mold = mold_params(&mut c, &md);
         let margin = c.or_within(fl.margin_mm, 5.0, "flat.margin_mm", 1.0, 50.0);
         let v = match (name, style, fingertip, cover, mold, margin) {
-            (Some(name), Some(style), Some((ff, fp)), Some(cover), Some(mold), Some(flat_margin_mm)) => {
-                Some(MoldParams { name, fingertip_file: ff, fingertip: fp, style, cover, mold, flat_margin_mm })
+            (Some(name), Some(style), Some((ff, fp, fsrc)), Some(cover), Some(mold), Some(flat_margin_mm)) => {
+                Some(MoldParams { name, fingertip_file: ff, fingertip: fp, fingertip_src: fsrc, style, cover, mold, flat_margin_mm })
             }
             _ => None,
         };
-        if let Some(p) = &v {
-            if c.problems.is_empty() {
-                for (path, value, msg) in crate::mold::validate(p) {
-                    c.push(&path, value, msg);
-                }
-            }
-        }
         super::finish(v, c.problems)
     }
 }

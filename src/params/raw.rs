@@ -5,7 +5,7 @@ use crate::error::{Error, Problem, Problems, Result};
 use serde::de::DeserializeOwned;
 
 /// A parsed parameter file with its text kept for locating keys.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SourceFile {
     pub file: String,
     pub text: String,

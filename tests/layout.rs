@@ -1,0 +1,43 @@
+//! The module layout ARCHITECTURE.md states: `params` parses and type-checks, and never calls a
+//! part family; the families' geometric rules are applied by the family (`fingertip::load`,
+//! `mold::load`) on the way to `build`.
+
+use std::path::Path;
+
+/// Lines of code (comments and doc comments left out) in `src/params/` that name a module of the
+/// part families or of the pipelines above them.
+fn upward_calls() -> Vec<String> {
+    let forbidden = ["crate::fingertip", "crate::mold", "crate::rig", "crate::build", "crate::export", "crate::checks"];
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/params")).unwrap() {
+        let path = entry.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
+        for (i, line) in text.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            for f in forbidden {
+                if code.contains(f) {
+                    out.push(format!("{}:{}: {}", path.display(), i + 1, line.trim()));
+                }
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn params_does_not_call_the_part_families() {
+    let calls = upward_calls();
+    assert!(calls.is_empty(), "params must only parse and type-check; these lines call upward (an import circle):\n{}", calls.join("\n"));
+}
+
+#[test]
+fn geometric_rules_still_apply_through_the_family() {
+    // a seat wider than the pad's flat: only the family's rules (which need the body) can see it
+    let text = std::fs::read_to_string("params/fingertip-1s.toml").unwrap();
+    let bad = text.replacen("flat_diameter_mm = ", "flat_diameter_mm = 30.0 # was ", 1);
+    assert_ne!(bad, text, "fixture: params/fingertip-1s.toml has no flat_diameter_mm");
+    let src = tipforge::params::SourceFile::parse("bad.toml", bad).unwrap();
+    assert!(tipforge::params::fingertip::FingertipParams::from_source(&src, "bad").is_ok(), "params alone type-checks");
+    let e = tipforge::fingertip::load(&src, "bad").unwrap_err();
+    assert!(e.is_input() && e.to_string().contains("bad.toml:"), "{e}");
+}
