@@ -13,6 +13,7 @@ import sys
 import tomllib
 from pathlib import Path
 
+import lib3mf
 import manifold3d as m3
 import numpy as np
 import trimesh
@@ -44,6 +45,50 @@ class Ctx:
 def to_manifold(mesh):
     # trimesh merges STL's repeated vertices on load (process=True); manifold needs shared vertices.
     return m3.Manifold(m3.Mesh(vert_properties=np.asarray(mesh.vertices, dtype=np.float32), tri_verts=np.asarray(mesh.faces, dtype=np.uint32)))
+
+
+def read_3mf_strict(path):
+    """Reads a 3MF with the 3MF Consortium's lib3mf in strict mode. Returns (objects, build item
+    object ids, warnings): objects as (id, name, type name)."""
+    w = lib3mf.get_wrapper()
+    model = w.CreateModel()
+    reader = model.QueryReader("3mf")
+    reader.SetStrictModeActive(True)
+    reader.ReadFromFile(str(path))
+    warnings = [reader.GetWarning(i)[1] for i in range(reader.GetWarningCount())]
+    objs = []
+    it = model.GetObjects()
+    while it.MoveNext():
+        o = it.GetCurrentObject()
+        objs.append((o.GetResourceID(), o.GetName(), lib3mf.ObjectType(o.GetType()).name))
+    items = []
+    b = model.GetBuildItems()
+    while b.MoveNext():
+        items.append(b.GetCurrent().GetObjectResourceID())
+    return objs, items, warnings
+
+
+def check_3mf_file(path):
+    """A 3MF as a slicer would take it: loads in lib3mf strict mode without warnings; reference
+    objects (named "... (reference ...)") are type OTHER and not in the build; every build item is
+    a model."""
+    out = []
+    try:
+        objs, items, warnings = read_3mf_strict(path)
+    except Exception as e:
+        return [(path.name, "must load in lib3mf strict mode", repr(e))]
+    if warnings:
+        out.append((path.name, "lib3mf strict mode must give no warnings", "; ".join(warnings)))
+    types = {i: t for i, _, t in objs}
+    for i, name, t in objs:
+        if "(reference" in name and (t.upper() != "OTHER" or i in items):
+            out.append((path.name, "a reference object must be type OTHER and not a build item", f"{name}: type {t}, in build {i in items}"))
+    for i in items:
+        if types.get(i, "").upper() != "MODEL":
+            out.append((path.name, "every build item must be a printable model", f"object {i}: type {types.get(i)}"))
+    if not items:
+        out.append((path.name, "a 3MF must place at least one object on the build", "0 build items"))
+    return out
 
 
 def frame_to_z(normal, origin):
@@ -123,6 +168,18 @@ def stl_and_3mf_agree(c):
         return "STL and 3MF must hold the same mesh", f"faces {len(a.faces)} vs {len(b.faces)}, volume {a.volume:.4f} vs {b.volume:.4f}"
     if not np.allclose(np.sort(a.bounds, axis=0), np.sort(b.bounds, axis=0), atol=1e-5):
         return "STL and 3MF must hold the same mesh", f"bounds {a.bounds.tolist()} vs {b.bounds.tolist()}"
+
+
+@rule
+def on_the_bed(c):
+    """A printed part is written in its print orientation resting on the bed (z = 0); a slicer
+    would otherwise drop it silently, or print it in the air."""
+    if c.entry.get("process") != "printed":
+        return None
+    zmin = float(c.mesh.bounds[0][2])
+    if abs(zmin) > 1e-3:
+        return ("a printed part must rest on the bed (min z = 0)", f"min z {zmin:.4f} mm")
+    return None
 
 
 @rule
@@ -638,6 +695,8 @@ def main(root):
         f = check_part(name, entry, root)
         failures += f
         print(f"{name}: {'ok' if not f else 'FAILED'} ({len(RULES)} rules)")
+    for path in sorted(root.glob("*.3mf")):
+        failures += check_3mf_file(path)
     for name, rig in sorted(man.get("rigs", {}).items()):
         failures += check_rig(name, rig, man, root)
     for name, mold in sorted(man.get("molds", {}).items()):
@@ -687,6 +746,10 @@ def self_test():
     feats_wrong = {"min_wall_mm": 1.2, "holes": [{"axis_point": [5, 5, 2], "axis_dir": [0, 0, 1], "diameter_mm": 3.0}]}
     results["a 2.4 mm hole fails a 3.0 mm nominal"] = bool(hole_diameters(ctx_for(hm, {"genus": 1}, feats_wrong)))
     results["a 2.4 mm hole passes a 2.4 mm nominal"] = not hole_diameters(ctx_for(hm, {"genus": 1}, feats))
+    lifted = box.copy().apply_translation([0, 0, 2.0 - box.bounds[0][2]])
+    results["a printed part 2 mm above the bed fails on_the_bed"] = bool(on_the_bed(ctx_for(lifted, {"process": "printed"})))
+    results["a cast part off the bed passes on_the_bed"] = not on_the_bed(ctx_for(lifted, {"process": "cast"}))
+    results.update(self_test_3mf(box))
     ok = all(results.values())
     for k, v in results.items():
         print(f"{'ok  ' if v else 'FAIL'} {k}")
@@ -694,6 +757,37 @@ def self_test():
         print("rules failing on the clean box:", bad_clean)
     print(f"{sum(results.values())} passed, {len(results) - sum(results.values())} failed")
     return 0 if ok else 1
+
+
+def self_test_3mf(box):
+    """check_3mf_file on hand-written 3MFs: a clean one passes; a reference object placed on the
+    build, or typed model, fails; a build item of type OTHER is refused by lib3mf itself."""
+    import tempfile
+    import zipfile
+    verts = "".join(f'<vertex x="{v[0]}" y="{v[1]}" z="{v[2]}"/>' for v in box.vertices)
+    tris = "".join(f'<triangle v1="{f[0]}" v2="{f[1]}" v3="{f[2]}"/>' for f in box.faces)
+    def model(objs, items):
+        body = "".join(f'<object id="{i}" name="{n}" type="{t}"><mesh><vertices>{verts}</vertices><triangles>{tris}</triangles></mesh></object>' for i, n, t in objs)
+        build = "".join(f'<item objectid="{i}"/>' for i in items)
+        return f'<?xml version="1.0" encoding="UTF-8"?><model unit="millimeter" xml:lang="en-US" xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"><resources>{body}</resources><build>{build}</build></model>'
+    ct = '<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types"><Default Extension="rels" ContentType="application/vnd.openxmlformats-package.relationships+xml"/><Default Extension="model" ContentType="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/></Types>'
+    rels = '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>'
+    cases = {
+        "a 3MF with a part and an unplaced OTHER reference passes": (([(1, "part", "model"), (2, "sensor (reference)", "other")], [1]), False),
+        "a reference object typed model fails the 3MF check": (([(1, "part", "model"), (2, "sensor (reference)", "model")], [1]), True),
+        "a reference object placed on the build fails the 3MF check": (([(1, "part", "model"), (2, "sensor (reference)", "model")], [1, 2]), True),
+        "a build item of type OTHER fails the 3MF check (lib3mf strict)": (([(1, "part", "other")], [1]), True),
+    }
+    results = {}
+    with tempfile.TemporaryDirectory() as d:
+        for k, ((objs, items), should_fail) in cases.items():
+            path = Path(d) / "t.3mf"
+            with zipfile.ZipFile(path, "w") as z:
+                z.writestr("[Content_Types].xml", ct)
+                z.writestr("_rels/.rels", rels)
+                z.writestr("3D/3dmodel.model", model(objs, items))
+            results[k] = bool(check_3mf_file(path)) == should_fail
+    return results
 
 
 def _mesh_of(mf):

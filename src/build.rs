@@ -223,7 +223,7 @@ pub fn run(opts: &Options) -> Result<Report> {
             staged.add(opts.out_dir.join(&files[0]), stl::to_bytes(&part.mesh));
             if part.write_3mf {
                 files.push(format!("{}.3mf", part.name));
-                staged.add(opts.out_dir.join(&files[1]), threemf::to_bytes(&[(&part.name, &part.mesh)]));
+                staged.add(opts.out_dir.join(&files[1]), threemf::to_bytes(&[threemf::Object::printed(&part.name, &part.mesh)]));
             }
             if opts.preview {
                 files.push(format!("{}.png", part.name));
@@ -233,10 +233,10 @@ pub fn run(opts: &Options) -> Result<Report> {
             summaries.push(Summary { name: part.name.clone(), triangles: part.mesh.triangles.len(), volume_mm3: part.volume_mm3(), mass_g: part.mass_g(), millis: per_part_ms });
         }
         for a in &assemblies {
-            let objs: Vec<(&str, &crate::mesh::Mesh)> = a.parts.iter().map(|(n, m)| (n.as_str(), m)).collect();
+            let objs: Vec<threemf::Object> = a.parts.iter().map(|o| threemf::Object { name: &o.name, mesh: &o.mesh, printable: o.printable }).collect();
             staged.add(opts.out_dir.join(format!("{}.3mf", a.name)), threemf::to_bytes(&objs));
             if opts.preview {
-                let merged = crate::mesh::Mesh::merge(a.parts.iter().map(|(_, m)| m));
+                let merged = crate::mesh::Mesh::merge(a.parts.iter().map(|o| &o.mesh));
                 staged.add(opts.out_dir.join(format!("{}.png", a.name)), crate::preview::render(&merged, &a.name));
             }
         }

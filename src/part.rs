@@ -56,5 +56,23 @@ impl Part {
 #[derive(Clone)]
 pub struct Assembly {
     pub name: String,
-    pub parts: Vec<(String, Mesh)>,
+    pub parts: Vec<AssemblyObject>,
+}
+
+/// One object of an assembly view: a printed part in its assembled pose, or a reference shape
+/// (a sensor, a cavity, a part lifted off for viewing) that slicers must not print.
+#[derive(Clone)]
+pub struct AssemblyObject {
+    pub name: String,
+    pub mesh: Mesh,
+    pub printable: bool,
+}
+
+impl AssemblyObject {
+    pub fn part(name: impl Into<String>, mesh: Mesh) -> Self {
+        AssemblyObject { name: name.into(), mesh, printable: true }
+    }
+    pub fn reference(name: impl Into<String>, mesh: Mesh) -> Self {
+        AssemblyObject { name: name.into(), mesh, printable: false }
+    }
 }

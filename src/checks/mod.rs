@@ -3,6 +3,7 @@
 
 mod bodies;
 mod genus;
+mod on_bed;
 mod orientation;
 mod status;
 
@@ -24,7 +25,7 @@ impl fmt::Display for Violation {
 
 /// Runs every check on a part.
 pub fn run(part: &Part) -> Vec<Violation> {
-    [status::check, orientation::check, genus::check, bodies::check].iter().filter_map(|c| c(part)).collect()
+    [status::check, orientation::check, genus::check, bodies::check, on_bed::check].iter().filter_map(|c| c(part)).collect()
 }
 
 #[cfg(test)]

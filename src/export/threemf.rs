@@ -12,12 +12,28 @@ const RELS: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>
 "#;
 
+/// One object of a 3MF: its name, mesh, and whether a slicer should print it. A reference object
+/// (not printable) is written with the core specification's object type `other` and without a
+/// build item (the specification forbids build items of that type), so no consumer manufactures it.
+pub struct Object<'a> {
+    pub name: &'a str,
+    pub mesh: &'a Mesh,
+    pub printable: bool,
+}
+
+impl<'a> Object<'a> {
+    pub fn printed(name: &'a str, mesh: &'a Mesh) -> Self {
+        Object { name, mesh, printable: true }
+    }
+}
+
 /// One 3MF holding each named mesh as its own object and build item.
-pub fn to_bytes(objects: &[(&str, &Mesh)]) -> Vec<u8> {
+pub fn to_bytes(objects: &[Object]) -> Vec<u8> {
     let mut xml = String::with_capacity(1 << 20);
     xml.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<model unit=\"millimeter\" xml:lang=\"en-US\" xmlns=\"http://schemas.microsoft.com/3dmanufacturing/core/2015/02\">\n<metadata name=\"Application\">tipforge</metadata>\n<resources>\n");
-    for (i, (name, mesh)) in objects.iter().enumerate() {
-        let _ = writeln!(xml, "<object id=\"{}\" name=\"{}\" type=\"model\"><mesh><vertices>", i + 1, escape(name));
+    for (i, Object { name, mesh, printable }) in objects.iter().enumerate() {
+        let kind = if *printable { "model" } else { "other" };
+        let _ = writeln!(xml, "<object id=\"{}\" name=\"{}\" type=\"{kind}\"><mesh><vertices>", i + 1, escape(name));
         for v in mesh.to_f32() {
             let _ = writeln!(xml, "<vertex x=\"{}\" y=\"{}\" z=\"{}\"/>", v[0], v[1], v[2]);
         }
@@ -28,7 +44,9 @@ pub fn to_bytes(objects: &[(&str, &Mesh)]) -> Vec<u8> {
         xml.push_str("</triangles></mesh></object>\n");
     }
     xml.push_str("</resources>\n<build>\n");
-    for i in 0..objects.len() {
+    // the core specification forbids build items of type `other`: reference objects are resources
+    // that viewers list and slicers do not place
+    for (i, _) in objects.iter().enumerate().filter(|(_, o)| o.printable) {
         let _ = writeln!(xml, "<item objectid=\"{}\"/>", i + 1);
     }
     xml.push_str("</build>\n</model>\n");
@@ -59,13 +77,24 @@ mod tests {
     #[test]
     fn model_part_is_where_readers_look_and_is_deterministic() {
         let m = Solid::cuboid([0.0; 3], [1.0; 3]).to_mesh();
-        let a = to_bytes(&[("cube", &m)]);
-        let b = to_bytes(&[("cube", &m)]);
+        let a = to_bytes(&[Object::printed("cube", &m)]);
+        let b = to_bytes(&[Object::printed("cube", &m)]);
         assert_eq!(a, b);
         let mut z = zip::ZipArchive::new(std::io::Cursor::new(a)).unwrap();
         let mut s = String::new();
         std::io::Read::read_to_string(&mut z.by_name("3D/3dmodel.model").unwrap(), &mut s).unwrap();
         assert!(s.contains("unit=\"millimeter\""));
         assert_eq!(s.matches("<triangle ").count(), m.triangles.len());
+    }
+
+    #[test]
+    fn reference_objects_are_type_other() {
+        let m = Solid::cuboid([0.0; 3], [1.0; 3]).to_mesh();
+        let a = to_bytes(&[Object::printed("part", &m), Object { name: "sensor (reference)", mesh: &m, printable: false }]);
+        let mut z = zip::ZipArchive::new(std::io::Cursor::new(a)).unwrap();
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut z.by_name("3D/3dmodel.model").unwrap(), &mut s).unwrap();
+        assert!(s.contains(r#"name="part" type="model""#) && s.contains(r#"name="sensor (reference)" type="other""#), "{s}");
+        assert!(s.contains(r#"<item objectid="1"/>"#) && !s.contains(r#"<item objectid="2"/>"#), "{s}");
     }
 }

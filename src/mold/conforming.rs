@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::fingertip;
 use crate::mesh::{scale, segments, sub, Solid, P3};
 use crate::params::mold::MoldParams;
-use crate::part::{Assembly, Part};
+use crate::part::{Assembly, AssemblyObject, Part};
 use serde_json::{json, Map};
 
 const UP: P3 = [0.0, 0.0, 1.0];
@@ -264,7 +264,11 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let exploded = a.core.translate([0.0, 0.0, 25.0]);
     let assembly = Assembly {
         name: format!("{name}-assembly"),
-        parts: vec![(format!("{name}-shell"), a.shell.to_mesh()), (cover_name.clone(), a.cavity.to_mesh()), (format!("{name}-core (lifted 25 mm)"), exploded.to_mesh())],
+        parts: vec![
+            AssemblyObject::part(format!("{name}-shell"), a.shell.to_mesh()),
+            AssemblyObject::reference(format!("{cover_name} cavity (reference)"), a.cavity.to_mesh()),
+            AssemblyObject::reference(format!("{name}-core (reference, lifted 25 mm)"), exploded.to_mesh()),
+        ],
     };
     let mut manifest = Map::new();
     let mut entry = Map::new();

@@ -113,6 +113,8 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let cut_volume = len * wid * t - l.domes.iter().map(|d| std::f64::consts::PI * d.r_base * d.r_base * d.depth).sum::<f64>();
     let mat = material(p, sheet.volume());
     let cover_name = p.cover_name();
+    // printed floor down on the bed: the tray's frame is the sheet's lifted by the floor
+    let tray = tray.translate([0.0, 0.0, w]);
     let tray_part = Part {
         name: format!("{name}-tray"),
         mesh: tray.to_mesh(),
@@ -122,7 +124,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         process: crate::part::Process::Printed,
         infill: 1.0,
         write_3mf: true,
-        features: json!({"kind": "mold-tray", "mold": name, "min_wall_mm": m.min_wall_mm, "chordal_tolerance_mm": tol}),
+        features: json!({"kind": "mold-tray", "mold": name, "min_wall_mm": m.min_wall_mm, "chordal_tolerance_mm": tol, "frame": "floor on the bed (z = 0); the cast sheet's frame lifted by the floor thickness", "sheet_to_tray_mm": [0.0, 0.0, w]}),
         extra: Default::default(),
     };
     let cover = Part {

@@ -6,7 +6,7 @@ use crate::checks::Violation;
 use crate::error::Result;
 use crate::mesh::{segments, Mesh, Solid};
 use crate::params::rig::RigParams;
-use crate::part::{Assembly, Part};
+use crate::part::{Assembly, AssemblyObject, Part};
 use serde_json::{json, Map, Value};
 
 pub const GRAVITY_M_S2: f64 = 9.80665;
@@ -243,7 +243,12 @@ pub fn build(p: &RigParams) -> Result<Built> {
     };
     let assembly = Assembly {
         name: format!("{}-assembly", p.name),
-        parts: vec![(base_part.name.clone(), base_part.mesh.clone()), (plunger_part.name.clone(), plunger.to_mesh()), ("sensor (reference)".into(), sensor_dummy(p, &l))],
+        parts: vec![
+            AssemblyObject::part(base_part.name.clone(), base_part.mesh.clone()),
+            // assembled pose = print pose turned over: shown, not printed from this file
+            AssemblyObject::reference(format!("{} (reference, assembled pose)", plunger_part.name), plunger.to_mesh()),
+            AssemblyObject::reference("sensor (reference)", sensor_dummy(p, &l)),
+        ],
     };
     let mut manifest = Map::new();
     manifest.insert(
