@@ -25,7 +25,7 @@ fn main() {
         ("both conforming molds", vec!["mold-1s".into(), "mold-2s".into()]),
         ("flat mold", vec!["mold-flat".into()]),
     ];
-    println!("{:<28} {:>6} {:>12} {:>12} {:>12}", "group", "runs", "median ms", "min ms", "max ms");
+    println!("{:<32} {:>6} {:>12} {:>12} {:>12}", "group", "runs", "median ms", "min ms", "max ms");
     for (label, only) in groups {
         let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only, preview: false };
         let mut times = Vec::new();
@@ -42,8 +42,34 @@ fn main() {
             times.push(t0.elapsed().as_secs_f64() * 1000.0);
         }
         let (mn, mx) = (times.iter().cloned().fold(f64::INFINITY, f64::min), times.iter().cloned().fold(0.0, f64::max));
-        println!("{:<28} {:>6} {:>12.1} {:>12.1} {:>12.1}", label, runs, median(times), mn, mx);
+        println!("{:<32} {:>6} {:>12.1} {:>12.1} {:>12.1}", label, runs, median(times), mn, mx);
     }
+    // every default part as `tipforge build` makes them: files built in parallel (rayon), checks,
+    // STL and 3MF bytes, nothing written
+    let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![], preview: false };
+    let mut times = Vec::new();
+    for _ in 0..runs {
+        let t0 = Instant::now();
+        let (loaded, _) = load_all(&opts).expect("params load");
+        let outs = tipforge::build::outputs_of_all(&loaded, &opts.out_dir, false, None).expect("build");
+        assert!(outs.iter().all(|o| o.violations.is_empty()));
+        times.push(t0.elapsed().as_secs_f64() * 1000.0);
+    }
+    let (mn, mx) = (times.iter().cloned().fold(f64::INFINITY, f64::min), times.iter().cloned().fold(0.0, f64::max));
+    println!("{:<32} {:>6} {:>12.1} {:>12.1} {:>12.1}", "all parts, parallel", runs, median(times), mn, mx);
+    // the whole process, as a user runs it: `tipforge build --out <tmp>` (start-up, parse, build,
+    // checks, files written and committed)
+    let out = std::env::temp_dir().join(format!("tipforge-bench-build-{}", std::process::id()));
+    let mut times = Vec::new();
+    for _ in 0..runs.min(9) {
+        let t0 = Instant::now();
+        let st = std::process::Command::new(env!("CARGO_BIN_EXE_tipforge")).args(["build", "--out"]).arg(&out).stdout(std::process::Stdio::null()).status().expect("run tipforge");
+        assert!(st.success());
+        times.push(t0.elapsed().as_secs_f64() * 1000.0);
+    }
+    let _ = std::fs::remove_dir_all(&out);
+    let (mn, mx) = (times.iter().cloned().fold(f64::INFINITY, f64::min), times.iter().cloned().fold(0.0, f64::max));
+    println!("{:<32} {:>6} {:>12.1} {:>12.1} {:>12.1}", "whole process (tipforge build)", times.len(), median(times), mn, mx);
     // the molds' geometry alone (no checks), to show where the time goes
     let mut times = Vec::new();
     let molds: Vec<_> = ["mold-1s", "mold-2s"]
@@ -61,7 +87,7 @@ fn main() {
         times.push(t0.elapsed().as_secs_f64() * 1000.0);
     }
     let (mn, mx) = (times.iter().cloned().fold(f64::INFINITY, f64::min), times.iter().cloned().fold(0.0, f64::max));
-    println!("{:<28} {:>6} {:>12.1} {:>12.1} {:>12.1}", "molds, geometry only", runs, median(times), mn, mx);
+    println!("{:<32} {:>6} {:>12.1} {:>12.1} {:>12.1}", "molds, geometry only", runs, median(times), mn, mx);
 }
 
 fn single(only: &str, runs: usize) {

@@ -5,6 +5,7 @@ use crate::error::{Error, Gather, Problem, Problems, Result};
 use crate::export::{manifest, stl, threemf, Staged};
 use crate::params::{self, fingertip::FingertipParams, Kind, SourceFile};
 use crate::part::{Assembly, Part};
+use rayon::prelude::*;
 use serde_json::Map;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -190,6 +191,77 @@ pub fn build_job(job: &Job) -> Result<Built> {
     }
 }
 
+/// What one parameter file gives the build: its files (bytes, not yet written), manifest entries,
+/// summary rows, check violations, manifest sections and notes.
+pub struct Outputs {
+    pub files: Vec<(PathBuf, Vec<u8>)>,
+    pub entries: Vec<(String, serde_json::Value)>,
+    pub summaries: Vec<Summary>,
+    pub violations: Vec<crate::checks::Violation>,
+    pub sections: Vec<(&'static str, Map<String, serde_json::Value>)>,
+    pub notes: Vec<String>,
+}
+
+/// Builds one loaded file and renders its outputs: parts, checks, STL, 3MF and previews. The parts
+/// of a file are serialised in parallel.
+pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool) -> Result<Outputs> {
+    let t0 = Instant::now();
+    let Built { parts, assemblies, violations, sections, notes } = build_job(&l.job)?;
+    let per_part_ms = t0.elapsed().as_secs_f64() * 1000.0 / parts.len().max(1) as f64;
+    let sha = manifest::sha256_hex(l.src.text.as_bytes());
+    let mut out = Outputs { files: Vec::new(), entries: Vec::new(), summaries: Vec::new(), violations, sections, notes };
+    let per_part: Vec<_> = parts.par_iter().map(|part| part_outputs(part, out_dir, preview)).collect();
+    for (part, (violations, files)) in parts.iter().zip(per_part) {
+        out.violations.extend(violations);
+        let names: Vec<String> = files.iter().filter_map(|(p, _)| p.file_name().and_then(|n| n.to_str()).map(str::to_string)).collect();
+        out.entries.push((part.name.clone(), manifest::entry(part, &l.rel, &sha, &names)));
+        out.summaries.push(Summary { name: part.name.clone(), triangles: part.mesh.triangles.len(), volume_mm3: part.volume_mm3(), mass_g: part.mass_g(), millis: per_part_ms });
+        out.files.extend(files);
+    }
+    let per_assembly: Vec<_> = assemblies.par_iter().map(|a| assembly_outputs(a, out_dir, preview)).collect();
+    out.files.extend(per_assembly.into_iter().flatten());
+    Ok(out)
+}
+
+/// A part's checks and files: STL, 3MF when asked, PNG preview when asked.
+fn part_outputs(part: &Part, out_dir: &Path, preview: bool) -> (Vec<crate::checks::Violation>, Vec<(PathBuf, Vec<u8>)>) {
+    let violations = crate::checks::run(part);
+    let mut files = vec![(out_dir.join(format!("{}.stl", part.name)), stl::to_bytes(&part.mesh))];
+    if part.write_3mf {
+        files.push((out_dir.join(format!("{}.3mf", part.name)), threemf::to_bytes(&[threemf::Object::printed(&part.name, &part.mesh)])));
+    }
+    if preview {
+        files.push((out_dir.join(format!("{}.png", part.name)), crate::preview::render(&part.mesh, &part.name)));
+    }
+    (violations, files)
+}
+
+/// An assembly view's 3MF (reference objects typed as such) and preview.
+fn assembly_outputs(a: &Assembly, out_dir: &Path, preview: bool) -> Vec<(PathBuf, Vec<u8>)> {
+    let objs: Vec<threemf::Object> = a.parts.iter().map(|o| threemf::Object { name: &o.name, mesh: &o.mesh, printable: o.printable }).collect();
+    let mut files = vec![(out_dir.join(format!("{}.3mf", a.name)), threemf::to_bytes(&objs))];
+    if preview {
+        let merged = crate::mesh::Mesh::merge(a.parts.iter().map(|o| &o.mesh));
+        files.push((out_dir.join(format!("{}.png", a.name)), crate::preview::render(&merged, &a.name)));
+    }
+    files
+}
+
+/// Builds every loaded file, in parallel (rayon: one task per file, and per part within a file).
+/// The results come back in the files' order, so the output is the same whatever the scheduling.
+pub fn outputs_of_all(loaded: &[Loaded], out_dir: &Path, preview: bool, bar: Option<&crate::progress::Progress>) -> Result<Vec<Outputs>> {
+    loaded
+        .par_iter()
+        .map(|l| {
+            let o = outputs_of(l, out_dir, preview);
+            if let Some(bar) = bar {
+                bar.step(format!("built {}", l.rel));
+            }
+            o
+        })
+        .collect()
+}
+
 /// The whole build: load, build, check, write.
 pub fn run(opts: &Options) -> Result<Report> {
     let mut g = Gather::default();
@@ -203,43 +275,20 @@ pub fn run(opts: &Options) -> Result<Report> {
     let mut sections = Map::new();
     let mut notes = Vec::new();
     let bar = crate::progress::Progress::new("build", loaded.len() + 1);
-    for l in &loaded {
-        bar.step(format!("building {}", l.rel));
-        let t0 = Instant::now();
-        let Built { parts, assemblies, violations: assembly_violations, sections: secs, notes: job_notes } = build_job(&l.job)?;
-        notes.extend(job_notes);
-        violations.extend(assembly_violations);
-        for (k, m) in secs {
+    for o in outputs_of_all(&loaded, &opts.out_dir, opts.preview, Some(&bar))? {
+        notes.extend(o.notes);
+        violations.extend(o.violations);
+        for (k, m) in o.sections {
             let entry = sections.entry(k.to_string()).or_insert_with(|| serde_json::Value::Object(Map::new()));
-            if let serde_json::Value::Object(o) = entry {
-                o.extend(m);
+            if let serde_json::Value::Object(obj) = entry {
+                obj.extend(m);
             }
         }
-        let per_part_ms = t0.elapsed().as_secs_f64() * 1000.0 / parts.len().max(1) as f64;
-        let sha = manifest::sha256_hex(l.src.text.as_bytes());
-        for part in &parts {
-            violations.extend(crate::checks::run(part));
-            let mut files = vec![format!("{}.stl", part.name)];
-            staged.add(opts.out_dir.join(&files[0]), stl::to_bytes(&part.mesh));
-            if part.write_3mf {
-                files.push(format!("{}.3mf", part.name));
-                staged.add(opts.out_dir.join(&files[1]), threemf::to_bytes(&[threemf::Object::printed(&part.name, &part.mesh)]));
-            }
-            if opts.preview {
-                files.push(format!("{}.png", part.name));
-                staged.add(opts.out_dir.join(format!("{}.png", part.name)), crate::preview::render(&part.mesh, &part.name));
-            }
-            entries.insert(part.name.clone(), manifest::entry(part, &l.rel, &sha, &files));
-            summaries.push(Summary { name: part.name.clone(), triangles: part.mesh.triangles.len(), volume_mm3: part.volume_mm3(), mass_g: part.mass_g(), millis: per_part_ms });
+        for (path, bytes) in o.files {
+            staged.add(path, bytes);
         }
-        for a in &assemblies {
-            let objs: Vec<threemf::Object> = a.parts.iter().map(|o| threemf::Object { name: &o.name, mesh: &o.mesh, printable: o.printable }).collect();
-            staged.add(opts.out_dir.join(format!("{}.3mf", a.name)), threemf::to_bytes(&objs));
-            if opts.preview {
-                let merged = crate::mesh::Mesh::merge(a.parts.iter().map(|o| &o.mesh));
-                staged.add(opts.out_dir.join(format!("{}.png", a.name)), crate::preview::render(&merged, &a.name));
-            }
-        }
+        entries.extend(o.entries);
+        summaries.extend(o.summaries);
     }
     if !violations.is_empty() {
         let msg = violations.iter().map(|v| format!("  {v}")).collect::<Vec<_>>().join("\n");
