@@ -155,14 +155,28 @@ def fingertip_spec(manifest, tol):
     sw, sh, sd, sz = m["socket_width_mm"], m["socket_height_mm"], m["socket_depth_mm"], m["socket_center_z_mm"]
     spec["boxes"].append(((-1.0, -sw / 2, sz - sh / 2), (sd, sw / 2, sz + sh / 2)))
     farh = params["body"]["width_mm"] / 2 + 2.0
-    r, rh = m["hole_diameter_mm"] / 2, m["head_diameter_mm"] / 2
+    hole, head_d, head_depth = screw_recess(m)
+    r, rh = hole / 2, head_d / 2
     for x, z in m["holes"]:
         spec["cones"].append(((x, -farh, z), np.array([0, 1.0, 0]), 2 * farh, r, r))
-        fy = body.flank_y(x, z) - m["head_depth_mm"]
+        fy = body.flank_y(x, z) - head_depth
         for sg in (-1.0, 1.0):
             spec["cones"].append(((x, sg * fy, z), np.array([0, sg, 0]), farh - fy, rh, rh))
     spec["genus"] = 2 * len(m["holes"])
     return spec
+
+
+# the pan head screws the default fingertips name (ISO 7045 max head sizes, ISO 273 medium hole);
+# the peers model only these, as tipforge's src/params/screws.rs does for every size
+PAN_HEADS = {"ISO 7045 M2": (2.4, 4.0, 1.6), "ISO 7045 M2.5": (2.9, 5.0, 2.1), "ISO 7045 M3": (3.4, 5.6, 2.4)}
+
+
+def screw_recess(m):
+    """(hole, counterbore diameter, counterbore depth) of a [mount] table, by hand or from its screw."""
+    if "screw" not in m:
+        return m["hole_diameter_mm"], m["head_diameter_mm"], m["head_depth_mm"]
+    hole, dk, k = PAN_HEADS[m["screw"]]
+    return hole, dk + 2 * m.get("head_clearance_mm", 0.3), k + m.get("head_sink_mm", 0.2)
 
 
 def plunger_spec():

@@ -66,7 +66,10 @@ fn geometric_rules_name_the_offending_key() {
         ("holes = [[5.0, 1.0]]", "holes = [[5.0, 1.0], [7.0, 1.0]]", "too close to hole 0"),
         ("holes = [[5.0, 1.0]]", "holes = [[12.0, 1.0]]", "must pass through the socket"),
         ("socket_width_mm = 10.0", "socket_width_mm = 15.0", "mount.socket_width_mm"),
-        ("head_depth_mm = 1.2", "head_depth_mm = 2.5", "mount.head_depth_mm"),
+        ("head_sink_mm = 0.1", "head_sink_mm = 1.5", "mount.screw = \"ISO 7045 M2\": hole 0: the head recess leaves"),
+        ("ISO 7045 M2", "DIN 912 M2", "mount.screw = \"DIN 912 M2\": hole 0: the head recess leaves 0.85 mm"),
+        ("ISO 7045 M2", "ISO 7045 M7", "no size \"M7\" in the table of ISO 7045"),
+        ("screw = ", "hole_diameter_mm = 2.4\nscrew = ", "remove it: `mount.screw"),
         ("channel_offset_mm = 0.0", "channel_offset_mm = 7.0", "runs off the pad"),
     ];
     for (i, (from, to, needle)) in cases.iter().enumerate() {
@@ -121,7 +124,7 @@ fn rig_rules_name_the_offending_key() {
         ("\nclearance_mm = 0.3", "\nclearance_mm = 0.05", "does not print reliably"),
         ("plate_diameter_mm = 60.0", "plate_diameter_mm = 30.0", "must carry the weights"),
         ("stem_length_mm = 24.0", "stem_length_mm = 2.0", "cannot hold the plunger vertical"),
-        ("stop_gap_mm = 0.5 ", "stop_gap_mm = 1.5 ", "overtravel stop"),
+        ("max_load_g = 1000.0 ", "stop_gap_mm = 1.5\nmax_load_g = 1000.0 ", "overtravel stop"),
     ];
     // all at once: every problem in one run
     let d = dir("rig-all");
@@ -137,6 +140,35 @@ fn rig_rules_name_the_offending_key() {
         assert!(text.contains(needle), "expected {needle:?} in\n{text}");
     }
     assert!(!d.join("out").exists());
+}
+
+/// The stop gap follows from the dome's stiffness and the top load: computed with a margin, or, when
+/// given, refused below the dome's compression (the stop would carry load) or at the dome's height.
+#[test]
+fn the_stop_gap_follows_from_stiffness_and_top_load() {
+    let base = std::fs::read_to_string("params/rig.toml").unwrap();
+    let cases = [
+        ("max_load_g = 1000.0 ", "max_load_g = 5000.0 ", "the dome is too soft for this load"),
+        ("max_load_g = 1000.0 ", "stop_gap_mm = 0.3\nmax_load_g = 1000.0 ", "the stop would carry part of the load; use at least 0.50 mm"),
+        ("dome_stiffness_n_per_mm = 20.0", "dome_stiffness_n_per_mm = 8.0", "the dome is too soft for this load"),
+    ];
+    for (i, (from, to, needle)) in cases.iter().enumerate() {
+        assert!(base.contains(from), "fixture lacks {from}");
+        let d = dir(&format!("stop{i}"));
+        std::fs::write(d.join("params/rig.toml"), base.replacen(from, to, 1)).unwrap();
+        let (code, text) = run(&d);
+        assert_eq!(code, 2, "{text}");
+        assert!(text.contains(needle) && text.contains("plunger.stop_gap_mm"), "case {i}: expected {needle:?} in\n{text}");
+    }
+    // the default: the top load's compression (10.0 N at 20 N/mm = 0.50 mm) plus the 0.2 mm margin
+    let d = dir("stop-default");
+    std::fs::write(d.join("params/rig.toml"), &base).unwrap();
+    let (code, text) = run(&d);
+    assert_eq!(code, 0, "{text}");
+    let m: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("out/manifest.json")).unwrap()).unwrap();
+    let r = &m["rigs"]["rig"];
+    let (gap, comp, n) = (r["stop_gap_mm"].as_f64().unwrap(), r["dome_compression_at_top_load_mm"].as_f64().unwrap(), r["top_load_n"].as_f64().unwrap());
+    assert!((n - 10.01).abs() < 0.02 && (comp - n / 20.0).abs() < 1e-9 && (gap - comp - 0.2).abs() < 1e-9, "{r}");
 }
 
 fn tipforge(args: &[&str]) -> (i32, String) {
@@ -370,4 +402,17 @@ fn build_takes_paths_as_well_as_stems() {
     assert_eq!(code, 2, "{text}");
     assert!(text.contains("did you mean `fingertip-1s`") && text.contains("no such file: ../nowhere/f.toml"), "{text}");
     assert!(!o2.exists());
+}
+
+/// A cover that runs over the screws' head recesses is refused by the mold's rules, with the way out.
+#[test]
+fn a_cover_over_a_screw_recess_is_refused() {
+    let d = dir("recess");
+    let ft = std::fs::read_to_string("params/fingertip-2s.toml").unwrap();
+    assert!(ft.contains("holes = [[5.0, 1.3]]"), "fixture: fingertip-2s hole at z = 1.3");
+    std::fs::write(d.join("params/fingertip-2s.toml"), ft.replace("holes = [[5.0, 1.3]]", "holes = [[5.0, 1.0]]")).unwrap();
+    std::fs::copy("params/mold-2s.toml", d.join("params/mold-2s.toml")).unwrap();
+    let (code, text) = run(&d);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("mold-2s.toml:10: cover.from_tip_mm") && text.contains("runs over the head recess of the fingertip's hole 0") && text.contains("raise the hole to z ≥ 1.30"), "{text}");
 }

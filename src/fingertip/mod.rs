@@ -427,7 +427,21 @@ pub fn load(src: &crate::params::SourceFile, default_name: &str) -> Result<Finge
 
 /// The geometric rules as input problems of `src`, the file the parameters came from.
 pub(crate) fn rules_on(p: &FingertipParams, src: &crate::params::SourceFile) -> Result<()> {
-    let problems: Vec<_> = validate(p).into_iter().map(|(path, value, msg)| src.problem(&path, value, msg)).collect();
+    let problems: Vec<_> = validate(p)
+        .into_iter()
+        .map(|(path, value, msg)| match &p.mount.screw {
+            // a named screw sized the hole and recess: the problem is the screw's, or its sink
+            Some(screw) if ["mount.hole_diameter_mm", "mount.head_diameter_mm", "mount.head_depth_mm"].contains(&path.as_str()) => {
+                let (m, h) = (&p.mount, if path == "mount.hole_diameter_mm" { "clearance hole" } else { "head recess" });
+                src.problem(
+                    "mount.screw",
+                    format!("{screw:?}"),
+                    format!("{msg} [the {h} this screw needs: hole {} mm, recess {:.2} mm wide and {:.2} mm deep; a smaller screw, a smaller head_sink_mm or another head type may fit]", m.hole_diameter_mm, m.head_diameter_mm, m.head_depth_mm),
+                )
+            }
+            _ => src.problem(&path, value, msg),
+        })
+        .collect();
     crate::params::finish(Some(()), problems)
 }
 
@@ -563,6 +577,8 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
             "frame": "mount face on the bed (z = 0); x lateral, y toward the nail, z toward the tip",
             "seats": seat_features,
             "holes": hole_features,
+            "screw": m.screw,
+            "head_recess": {"kind": format!("{:?}", m.head).to_lowercase(), "diameter_mm": m.head_diameter_mm, "depth_mm": m.head_depth_mm},
             "width_mm": p.body.width_mm,
             "thickness_mm": p.body.thickness_mm,
             "length_mm": p.body.length_mm,

@@ -317,6 +317,29 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
         );
         return out;
     }
+    // the cover must leave the screws' head recesses free: a cover edge across a recess keeps the
+    // head from seating (and tears when the screw goes in)
+    let mount = &p.fingertip.mount;
+    let r_recess = if mount.head == crate::params::fingertip::Head::None { mount.hole_diameter_mm / 2.0 } else { mount.head_diameter_mm / 2.0 };
+    for (i, h) in mount.holes.iter().enumerate() {
+        let (x, z) = (h[0], h[1]);
+        let (x_lo, z_lo) = (x + r_recess, z - r_recess);
+        if x_lo > l.x_start && z_lo < -m.parting_below_midplane_mm {
+            push(
+                "cover.from_tip_mm",
+                c.from_tip_mm.to_string(),
+                format!(
+                    "the cover (from x = {:.2} mm, up to {:.2} mm below the mid-plane) runs over the head recess of the fingertip's hole {i} (Ø{:.2} mm at x = {x}, z = {z}, down to z = {z_lo:.2}): shorten the cover to at most {:.2} mm, raise the hole to z ≥ {:.2} in the fingertip file, or lower mold.parting_below_midplane_mm to ≥ {:.2}",
+                    l.x_start,
+                    m.parting_below_midplane_mm,
+                    2.0 * r_recess,
+                    s.length - x_lo,
+                    r_recess - m.parting_below_midplane_mm,
+                    r_recess - z,
+                ),
+            );
+        }
+    }
     if l.x_start < m.wall_thickness_mm + 1.0 {
         push(
             "cover.from_tip_mm",

@@ -56,6 +56,10 @@ pub struct RawMount {
     pub head: Option<String>,
     pub head_diameter_mm: Option<f64>,
     pub head_depth_mm: Option<f64>,
+    /// A named screw ("ISO 7045 M2") sets the hole and the head recess.
+    pub screw: Option<String>,
+    pub head_clearance_mm: Option<f64>,
+    pub head_sink_mm: Option<f64>,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -123,6 +127,8 @@ pub struct Mount {
     pub head: Head,
     pub head_diameter_mm: f64,
     pub head_depth_mm: f64,
+    /// The screw the hole and recess were sized for, when the file names one.
+    pub screw: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -291,28 +297,15 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
     let sh = c.positive(m.socket_height_mm, "mount.socket_height_mm", "5.0");
     let sdp = c.positive(m.socket_depth_mm, "mount.socket_depth_mm", "8.0");
     let sz = c.req(Some(m.socket_center_z_mm.unwrap_or(0.0)), "mount.socket_center_z_mm", "1.0");
-    let hd = c.at_least_mm(m.hole_diameter_mm, "mount.hole_diameter_mm", super::raw::MIN_HOLE_MM, "the smallest hole a 0.4 mm nozzle prints open", "2.4");
     let holes = m.holes.clone().unwrap_or_default();
     for (i, h) in holes.iter().enumerate() {
         if !h[0].is_finite() || !h[1].is_finite() || h[0].abs() > super::raw::MAX_LENGTH_MM || h[1].abs() > super::raw::MAX_LENGTH_MM {
             c.push(&format!("mount.holes[{i}]"), format!("{h:?}"), "hole positions must be finite [x_mm, y_mm] pairs");
         }
     }
-    let head = match m.head.as_deref().unwrap_or("counterbore") {
-        "none" => Some(Head::None),
-        "counterbore" => Some(Head::Counterbore),
-        "countersink" => Some(Head::Countersink),
-        other => {
-            c.push("mount.head", format!("{other:?}"), "use \"counterbore\", \"countersink\" or \"none\"");
-            None
-        }
-    };
-    let (hdia, hdepth) = match head {
-        Some(Head::None) | None => (Some(0.0), Some(0.0)),
-        Some(_) => (
-            c.positive(m.head_diameter_mm, "mount.head_diameter_mm", "4.0"),
-            if head == Some(Head::Countersink) { Some(m.head_depth_mm.unwrap_or(0.0)) } else { c.positive(m.head_depth_mm, "mount.head_depth_mm", "2.0") },
-        ),
+    let (hd, head, hdia, hdepth) = match &m.screw {
+        Some(name) => screw_recess(c, m, name),
+        None => explicit_recess(c, m),
     };
     if let (Some(hd), Some(hdia), Some(h)) = (hd, hdia, head) {
         if h != Head::None && hdia <= hd {
@@ -330,6 +323,7 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
             head,
             head_diameter_mm: hdia,
             head_depth_mm: hdepth,
+            screw: m.screw.clone(),
         }),
         _ => None,
     };
@@ -337,4 +331,65 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
         return None;
     }
     Some(FingertipParams { name, body: body?, sensors: out_sensors, mount: mount?, print: print? })
+}
+
+type Recess = (Option<f64>, Option<Head>, Option<f64>, Option<f64>);
+
+/// Hole and recess from a named screw: the ISO 273 medium clearance hole; a counterbore of the
+/// head's largest diameter plus the clearance, as deep as the head's largest height plus the sink,
+/// or a countersink for a countersunk head.
+fn screw_recess(c: &mut Collector, m: &RawMount, name: &str) -> Recess {
+    let screw = match super::screws::lookup(name) {
+        Ok(s) => Some(s),
+        Err(msg) => {
+            c.push("mount.screw", format!("{name:?}"), msg);
+            None
+        }
+    };
+    let set = |v: Option<f64>| v.map(|x| x.to_string());
+    for (path, given) in [
+        ("mount.hole_diameter_mm", set(m.hole_diameter_mm)),
+        ("mount.head", m.head.as_ref().map(|h| format!("{h:?}"))),
+        ("mount.head_diameter_mm", set(m.head_diameter_mm)),
+        ("mount.head_depth_mm", set(m.head_depth_mm)),
+    ] {
+        if let Some(v) = given {
+            c.push(path, v, format!("remove it: `mount.screw = {name:?}` sets the hole and the head recess (or remove `screw` to size them by hand)"));
+        }
+    }
+    let clearance = c.or_within(m.head_clearance_mm, 0.3, "mount.head_clearance_mm", 0.0, 2.0);
+    let sink = c.or_within(m.head_sink_mm, 0.2, "mount.head_sink_mm", 0.0, 5.0);
+    let (Some(s), Some(clearance), Some(sink)) = (screw, clearance, sink) else { return (None, None, None, None) };
+    let dia = s.head_diameter_mm + 2.0 * clearance;
+    match s.head {
+        super::screws::HeadKind::Cylindrical => (Some(s.clearance_hole_mm), Some(Head::Counterbore), Some(dia), Some(s.head_height_mm + sink)),
+        super::screws::HeadKind::Countersunk => (Some(s.clearance_hole_mm), Some(Head::Countersink), Some(dia), Some(sink)),
+    }
+}
+
+/// Hole and recess sized by hand (no `screw`).
+fn explicit_recess(c: &mut Collector, m: &RawMount) -> Recess {
+    for (path, given) in [("mount.head_clearance_mm", m.head_clearance_mm), ("mount.head_sink_mm", m.head_sink_mm)] {
+        if let Some(v) = given {
+            c.push(path, v, "only used with `mount.screw`: name the screw (e.g. screw = \"ISO 7045 M2\") or size the recess with head_diameter_mm and head_depth_mm");
+        }
+    }
+    let hd = c.at_least_mm(m.hole_diameter_mm, "mount.hole_diameter_mm", super::raw::MIN_HOLE_MM, "the smallest hole a 0.4 mm nozzle prints open", "2.4");
+    let head = match m.head.as_deref().unwrap_or("counterbore") {
+        "none" => Some(Head::None),
+        "counterbore" => Some(Head::Counterbore),
+        "countersink" => Some(Head::Countersink),
+        other => {
+            c.push("mount.head", format!("{other:?}"), "use \"counterbore\", \"countersink\" or \"none\" (or name the screw: screw = \"ISO 7045 M2\")");
+            None
+        }
+    };
+    let (hdia, hdepth) = match head {
+        Some(Head::None) | None => (Some(0.0), Some(0.0)),
+        Some(_) => (
+            c.positive(m.head_diameter_mm, "mount.head_diameter_mm", "4.0"),
+            if head == Some(Head::Countersink) { Some(m.head_depth_mm.unwrap_or(0.0)) } else { c.positive(m.head_depth_mm, "mount.head_depth_mm", "2.0") },
+        ),
+    };
+    (hd, head, hdia, hdepth)
 }

@@ -10,6 +10,7 @@ pub mod fingertip;
 pub mod mold;
 mod raw;
 pub mod rig;
+pub mod screws;
 pub mod sensor;
 
 pub use raw::{fields_of, nearest, part_name, Collector, Schema, SourceFile};

@@ -18,6 +18,7 @@ pub struct RawSensor {
     pub dome_height_mm: Option<f64>,
     pub tail_width_mm: Option<f64>,
     pub tail_length_mm: Option<f64>,
+    pub dome_stiffness_n_per_mm: Option<f64>,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -43,6 +44,8 @@ pub struct RawPlunger {
     pub weight_diameter_mm: Option<f64>,
     pub clearance_mm: Option<f64>,
     pub stop_gap_mm: Option<f64>,
+    pub max_load_g: Option<f64>,
+    pub stop_margin_mm: Option<f64>,
     pub max_tilt_deg: Option<f64>,
     pub scale_pitch_mm: Option<f64>,
     pub scale_line_width_mm: Option<f64>,
@@ -97,7 +100,14 @@ pub struct Plunger {
     pub plate_thickness_mm: f64,
     pub weight_diameter_mm: f64,
     pub clearance_mm: f64,
+    /// The overtravel stop: the plate lands on the sleeve after this much travel past rest.
     pub stop_gap_mm: f64,
+    /// The heaviest stack of weights the rig is for, and the force it puts on the dome with the
+    /// plunger's own weight (an upper bound: the plunger's solid volume without its engraving).
+    pub max_load_g: f64,
+    pub top_load_n: f64,
+    /// How far the dome compresses under the top load, at its stiffness.
+    pub dome_compression_mm: f64,
     pub max_tilt_deg: f64,
     pub scale_pitch_mm: f64,
     pub scale_line_width_mm: f64,
@@ -141,6 +151,9 @@ impl RigParams {
     }
 }
 
+/// Standard gravity (m/s²): grams of weight to newtons.
+const GRAVITY_M_S2: f64 = 9.80665;
+
 fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &RawPlunger, pr: &RawRigPrint) -> Option<RigParams> {
     let disc = c.positive(s.disc_diameter_mm, "sensor.disc_diameter_mm", "12.0");
     let board = c.positive(s.board_thickness_mm, "sensor.board_thickness_mm", "0.3");
@@ -162,13 +175,46 @@ fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &Raw
     let plate_t = c.positive(p.plate_thickness_mm, "plunger.plate_thickness_mm", "4.0");
     let weight_d = c.positive(p.weight_diameter_mm, "plunger.weight_diameter_mm", "40.0");
     let clear = c.req(Some(p.clearance_mm.unwrap_or(0.3)), "plunger.clearance_mm", "0.3");
-    let stop = c.positive(p.stop_gap_mm, "plunger.stop_gap_mm", "0.5");
     let tilt = c.or_within(p.max_tilt_deg, 2.0, "plunger.max_tilt_deg", 0.05, 10.0);
     let pitch = c.positive(p.scale_pitch_mm, "plunger.scale_pitch_mm", "5.0");
     let line_w = c.positive(p.scale_line_width_mm, "plunger.scale_line_width_mm", "0.6");
     let sdepth = c.positive(p.scale_depth_mm, "plunger.scale_depth_mm", "0.4");
     let print = print_params(c, &RawPrint { density_g_cm3: pr.density_g_cm3, min_wall_mm: pr.min_wall_mm, chordal_tolerance_mm: pr.chordal_tolerance_mm }, 1.2);
     let infill = c.or_within(pr.infill, 1.0, "print.infill", 0.05, 1.0);
+    let stiffness = c.or_within(s.dome_stiffness_n_per_mm, 20.0, "sensor.dome_stiffness_n_per_mm", 0.1, 1.0e5);
+    let max_load = c.or_within(p.max_load_g, 1000.0, "plunger.max_load_g", 0.0, 1.0e5);
+    let margin = c.or_within(p.stop_margin_mm, 0.2, "plunger.stop_margin_mm", 0.0, 10.0);
+    // the stop must not carry load: the plate lands on the sleeve only after the dome has taken the
+    // top load (weights plus the plunger itself)
+    let top = match (face, ftop, fh, stem_d, stem_l, plate_d, plate_t, &print, infill, max_load, stiffness) {
+        (Some(rf), Some(rt), Some(h), Some(sd), Some(sl), Some(pd), Some(pt), Some(pr), Some(inf), Some(ml), Some(k)) => {
+            let (rf, rt) = (rf / 2.0, rt / 2.0);
+            let pi = std::f64::consts::PI;
+            let vol = pi * h / 3.0 * (rf * rf + rf * rt + rt * rt) + pi * (sd / 2.0).powi(2) * sl + pi * (pd / 2.0).powi(2) * pt;
+            let plunger_g = vol / 1000.0 * pr.density_g_cm3 * inf;
+            let n = (ml + plunger_g) / 1000.0 * GRAVITY_M_S2;
+            Some((n, n / k))
+        }
+        _ => None,
+    };
+    let stop = match (p.stop_gap_mm, top, margin) {
+        (Some(st), Some((n, comp)), _) => {
+            let st = c.positive(Some(st), "plunger.stop_gap_mm", "0.7");
+            if let Some(st) = st {
+                if st < comp {
+                    c.push(
+                        "plunger.stop_gap_mm",
+                        st,
+                        format!("the plate would land on the sleeve before the top load ({n:.2} N) is on the dome, which it compresses {comp:.3} mm: the stop would carry part of the load; use at least {comp:.2} mm, or leave stop_gap_mm out to have it computed with stop_margin_mm"),
+                    );
+                }
+            }
+            st
+        }
+        (Some(st), None, _) => c.positive(Some(st), "plunger.stop_gap_mm", "0.7"),
+        (None, Some((_, comp)), Some(m)) => Some(comp + m),
+        (None, _, _) => None,
+    };
 
     // cross-field rules: every problem is reported, each with its path
     if let (Some(f), Some(d)) = (face, dome_d) {
@@ -212,7 +258,8 @@ fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &Raw
     }
     if let (Some(st), Some(dh)) = (stop, dome_h) {
         if st >= dh {
-            c.push("plunger.stop_gap_mm", st, format!("the overtravel stop must engage before the dome is flattened: less than the dome height {dh} mm"));
+            let why = if p.stop_gap_mm.is_some() { String::new() } else { " (computed: the dome's compression under plunger.max_load_g plus stop_margin_mm; the dome is too soft for this load)".to_string() };
+            c.push("plunger.stop_gap_mm", st, format!("the overtravel stop must engage before the dome is flattened: less than the dome height {dh} mm{why}"));
         }
     }
     if let (Some(sl), Some(st), Some(cl), Some(t), Some(sd)) = (stem_l, stop, clear, tilt, stem_d) {
@@ -281,6 +328,9 @@ fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &Raw
             weight_diameter_mm: weight_d?,
             clearance_mm: clear?,
             stop_gap_mm: stop?,
+            max_load_g: max_load?,
+            top_load_n: top?.0,
+            dome_compression_mm: top?.1,
             max_tilt_deg: tilt?,
             scale_pitch_mm: pitch?,
             scale_line_width_mm: line_w?,

@@ -263,6 +263,8 @@ pub fn build(p: &RigParams) -> Result<Built> {
             "dome_height_mm": p.sensor.dome_height_mm,
             "clearance_mm": p.plunger.clearance_mm,
             "stop_gap_mm": p.plunger.stop_gap_mm,
+            "top_load_n": p.plunger.top_load_n,
+            "dome_compression_at_top_load_mm": p.plunger.dome_compression_mm,
             "plate_top_z_mm": l.plate_top,
             "plate_bottom_z_mm": l.plate_bottom,
             "density_g_cm3": p.print.density_g_cm3,
