@@ -211,10 +211,15 @@ pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool) -> Result<Outputs> 
     let sha = manifest::sha256_hex(l.src.text.as_bytes());
     let mut out = Outputs { files: Vec::new(), entries: Vec::new(), summaries: Vec::new(), violations, sections, notes };
     let per_part: Vec<_> = parts.par_iter().map(|part| part_outputs(part, out_dir, preview)).collect();
-    for (part, (violations, files)) in parts.iter().zip(per_part) {
+    for (part, (violations, advice, files)) in parts.iter().zip(per_part) {
         out.violations.extend(violations);
         let names: Vec<String> = files.iter().filter_map(|(p, _)| p.file_name().and_then(|n| n.to_str()).map(str::to_string)).collect();
-        out.entries.push((part.name.clone(), manifest::entry(part, &l.rel, &sha, &names)));
+        let mut entry = manifest::entry(part, &l.rel, &sha, &names);
+        if let serde_json::Value::Object(e) = &mut entry {
+            e.insert("printability".into(), serde_json::json!(advice.iter().map(|v| format!("{}: {}", v.rule, v.measured)).collect::<Vec<_>>()));
+        }
+        out.notes.extend(advice.iter().map(|v| format!("{}: printability: {} (measured: {})", v.part, v.rule, v.measured)));
+        out.entries.push((part.name.clone(), entry));
         out.summaries.push(Summary { name: part.name.clone(), triangles: part.mesh.triangles.len(), volume_mm3: part.volume_mm3(), mass_g: part.mass_g(), millis: per_part_ms });
         out.files.extend(files);
     }
@@ -224,8 +229,11 @@ pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool) -> Result<Outputs> 
 }
 
 /// A part's checks and files: STL, 3MF when asked, PNG preview when asked.
-fn part_outputs(part: &Part, out_dir: &Path, preview: bool) -> (Vec<crate::checks::Violation>, Vec<(PathBuf, Vec<u8>)>) {
+type PartOutputs = (Vec<crate::checks::Violation>, Vec<crate::checks::Violation>, Vec<(PathBuf, Vec<u8>)>);
+
+fn part_outputs(part: &Part, out_dir: &Path, preview: bool) -> PartOutputs {
     let violations = crate::checks::run(part);
+    let advice = crate::checks::advise(part);
     let mut files = vec![(out_dir.join(format!("{}.stl", part.name)), stl::to_bytes(&part.mesh))];
     if part.write_3mf {
         files.push((out_dir.join(format!("{}.3mf", part.name)), threemf::to_bytes(&[threemf::Object::printed(&part.name, &part.mesh)])));
@@ -233,7 +241,7 @@ fn part_outputs(part: &Part, out_dir: &Path, preview: bool) -> (Vec<crate::check
     if preview {
         files.push((out_dir.join(format!("{}.png", part.name)), crate::preview::render(&part.mesh, &part.name)));
     }
-    (violations, files)
+    (violations, advice, files)
 }
 
 /// An assembly view's 3MF (reference objects typed as such) and preview.

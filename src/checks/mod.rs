@@ -3,6 +3,7 @@
 
 mod bodies;
 mod genus;
+pub mod min_feature;
 mod on_bed;
 mod orientation;
 mod status;
@@ -21,6 +22,14 @@ impl fmt::Display for Violation {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}: {} (measured: {})", self.part, self.rule, self.measured)
     }
+}
+
+/// Printability findings that do not stop a build yet: features a 0.4 mm nozzle cannot print
+/// (walls, lips and fins narrower than 0.8 mm). The default two-sensor fingertip and its mold have
+/// such features today (issue 18, item 5): they are reported in the summary and the manifest until
+/// the design is changed, then this becomes a check.
+pub fn advise(part: &Part) -> Vec<Violation> {
+    [min_feature::check].iter().filter_map(|c| c(part)).collect()
 }
 
 /// Runs every check on a part.
