@@ -43,6 +43,7 @@ pub enum Job {
     Fingertip(FingertipParams),
     Rig(crate::params::rig::RigParams),
     Mold(crate::params::mold::MoldParams),
+    Hand(crate::params::hand::HandParams),
 }
 
 /// What building one file gives: parts, assembly views, assembly violations, manifest sections.
@@ -147,7 +148,7 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Skipped)> {
                 problems.push(src.problem(
                     "kind",
                     format!("{kind:?}").to_lowercase(),
-                    format!("{stem} is not a part file: `build` makes fingertips, rigs and molds; sensor and protocol files are read by `simulate`"),
+                    format!("{stem} is not a part file: `build` makes fingertips, rigs, molds and hand sets; sensor and protocol files are read by `simulate`"),
                 ));
             } else {
                 skipped.push((path.display().to_string(), "not a part file (sensor or protocol parameters)"));
@@ -159,6 +160,7 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Skipped)> {
             Kind::Fingertip => crate::fingertip::load(&src, &stem).map(Job::Fingertip),
             Kind::Rig => crate::params::rig::RigParams::from_source(&src, &stem).map(Job::Rig),
             Kind::Mold => crate::mold::load(&src, &stem, path.parent().unwrap_or(Path::new("."))).map(Job::Mold),
+            Kind::Hand => crate::hand::load(&src, &stem, path.parent().unwrap_or(Path::new("."))).map(Job::Hand),
             _ => {
                 skipped.push((rel, "part kind not built by this version"));
                 continue;
@@ -187,6 +189,10 @@ pub fn build_job(job: &Job) -> Result<Built> {
         Job::Mold(p) => {
             let b = crate::mold::build(p)?;
             Ok(Built { parts: b.parts, assemblies: b.assemblies, violations: b.violations, sections: vec![("molds", b.manifest)], notes: b.notes })
+        }
+        Job::Hand(p) => {
+            let b = crate::hand::build(p)?;
+            Ok(Built { parts: b.parts, assemblies: b.assemblies, violations: vec![], sections: vec![("hands", b.manifest)], notes: b.notes })
         }
     }
 }

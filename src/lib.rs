@@ -6,6 +6,7 @@ pub mod checks;
 pub mod error;
 pub mod export;
 pub mod fingertip;
+pub mod hand;
 pub mod mesh;
 pub mod mold;
 pub mod params;

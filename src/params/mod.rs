@@ -7,6 +7,7 @@
 //! (type errors per table) → `TryFrom`-style validation that collects every semantic problem.
 
 pub mod fingertip;
+pub mod hand;
 pub mod mold;
 mod raw;
 pub mod rig;
@@ -26,10 +27,11 @@ pub enum Kind {
     Mold,
     Sensor,
     Protocol,
+    Hand,
 }
 
 impl Kind {
-    pub const NAMES: &'static [&'static str] = &["fingertip", "rig", "mold", "sensor", "protocol"];
+    pub const NAMES: &'static [&'static str] = &["fingertip", "rig", "mold", "hand", "sensor", "protocol"];
     fn parse(s: &str) -> Option<Kind> {
         Some(match s {
             "fingertip" => Kind::Fingertip,
@@ -37,12 +39,13 @@ impl Kind {
             "mold" => Kind::Mold,
             "sensor" => Kind::Sensor,
             "protocol" => Kind::Protocol,
+            "hand" => Kind::Hand,
             _ => return None,
         })
     }
     /// Whether `tipforge build` turns files of this kind into printable parts.
     pub fn is_part(self) -> bool {
-        matches!(self, Kind::Fingertip | Kind::Rig | Kind::Mold)
+        matches!(self, Kind::Fingertip | Kind::Rig | Kind::Mold | Kind::Hand)
     }
 }
 
