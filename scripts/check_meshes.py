@@ -278,6 +278,16 @@ def loop_around(cs, point):
     return best
 
 
+def seg_distance_min(p, pt):
+    """Smallest distance from point `pt` to the closed polygon `p`'s edges."""
+    a = np.asarray(p, float)
+    b = np.roll(a, -1, axis=0)
+    q = np.asarray(pt, float)
+    ab = b - a
+    t = np.clip(((q - a) * ab).sum(1) / np.maximum((ab * ab).sum(1), 1e-30), 0.0, 1.0)
+    return float(np.min(np.linalg.norm(a + ab * t[:, None] - q, axis=1)))
+
+
 def point_in_poly(pt, p):
     x, y = pt
     inside = False
@@ -306,9 +316,11 @@ def hole_diameters(c):
         found = loop_around(cs, (0.0, 0.0))
         if found is None:
             return "screw hole must be present", f"hole {i}: no contour around its axis"
-        d = 2 * math.sqrt(found[0] / math.pi)
+        # the screw's diameter is the largest circle about the axis inside the contour: a round hole's
+        # own, and a teardrop's (whose 45° cap above the circle only adds room)
+        d = 2 * seg_distance_min(found[1], (0.0, 0.0))
         if abs(d - h["diameter_mm"]) > 2 * c.tol + 2e-3:
-            return "hole diameter must match the parameter", f"hole {i}: {d:.4f} mm, expected {h['diameter_mm']} mm"
+            return "hole diameter must match the parameter", f"hole {i}: {d:.4f} mm (largest circle about the axis), expected {h['diameter_mm']} mm"
 
 
 def cast(mf, origin, direction, length=50.0):

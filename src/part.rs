@@ -15,6 +15,9 @@ pub struct Part {
     /// How the part is made: printed in PLA (its STL lies on the bed in its print orientation) or
     /// cast in PDMS (it keeps the frame of the part it covers).
     pub process: Process,
+    /// Where a printed part needs support in its print orientation, measured with PrusaSlicer
+    /// (scripts/check_slicer.py); None: it prints without (the slicer check enforces it).
+    pub supports: Option<&'static str>,
     /// Fraction of the volume printed solid (1.0 = 100 % infill).
     pub infill: f64,
     /// Whether to write a 3MF beside the STL.

@@ -50,6 +50,7 @@ pub(crate) mod tests {
             expected_genus: genus,
             density_g_cm3: 1.0,
             process: crate::part::Process::Printed,
+            supports: None,
             infill: 1.0,
             write_3mf: true,
             features: serde_json::Value::Null,

@@ -26,8 +26,9 @@ pub fn entry(part: &Part, source: &str, source_sha256: &str, files: &[String]) -
     m.insert("infill".into(), json!(part.infill));
     m.insert("process".into(), json!(part.process.name()));
     if part.process == crate::part::Process::Printed {
-        // every printed part is designed to print without support in the orientation it is written in
-        m.insert("supports".into(), json!("none"));
+        // "none": the part prints without support in the orientation it is written in, and the
+        // slicer check holds it to that; otherwise where it needs support
+        m.insert("supports".into(), json!(part.supports.map(|w| format!("needed: {w}")).unwrap_or_else(|| "none".into())));
     }
     m.insert(
         "bbox_mm".into(),

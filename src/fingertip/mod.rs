@@ -445,6 +445,18 @@ pub(crate) fn rules_on(p: &FingertipParams, src: &crate::params::SourceFile) -> 
     crate::params::finish(Some(()), problems)
 }
 
+/// The cap that makes a hole across the finger print without support: the fingertip prints
+/// standing on its mount face, so a cross hole is horizontal, and its top would be a flat ceiling.
+/// Two 45° faces tangent to the circle, meeting above it toward the tip (+x), turn it into a
+/// teardrop whose every overhang is 45°. The cap spans y from `y0` to `y1`.
+fn teardrop_cap(x: f64, z: f64, r: f64, y0: f64, y1: f64) -> Solid {
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    let (lo, hi) = (y0.min(y1), y0.max(y1));
+    let tri = [[x + r * s * 0.999, z + r * s], [x + r * s * 0.999, z - r * s], [x + r * std::f64::consts::SQRT_2, z]];
+    let pts: Vec<P3> = tri.iter().flat_map(|&[px, pz]| [[px, lo, pz], [px, hi, pz]]).collect();
+    Solid::hull(&pts)
+}
+
 pub fn build(p: &FingertipParams) -> Result<Part> {
     let name = p.name.as_str();
     let shape = Shape::new(&p.body);
@@ -534,6 +546,7 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
         let (x, z) = (h[0], h[1]);
         let r = m.hole_diameter_mm / 2.0;
         cutters.push(Solid::cylinder([x, -far, z], [0.0, 1.0, 0.0], 2.0 * far, r, r, segments(r, tol)));
+        cutters.push(teardrop_cap(x, z, r, -far, far));
         let fy = head_floor(&shape, p, x, z).ok_or_else(|| Error::geometry(name, format!("hole {i} is off the body")))?;
         let rh = m.head_diameter_mm / 2.0;
         for sgn in [-1.0, 1.0] {
@@ -541,7 +554,10 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
             let at = |y: f64| [x, sgn * y, z];
             match m.head {
                 Head::None => {}
-                Head::Counterbore => cutters.push(Solid::cylinder(at(fy), dir, far - fy, rh, rh, segments(rh, tol))),
+                Head::Counterbore => {
+                    cutters.push(Solid::cylinder(at(fy), dir, far - fy, rh, rh, segments(rh, tol)));
+                    cutters.push(teardrop_cap(x, z, rh, sgn * fy, sgn * far));
+                }
                 Head::Countersink => {
                     let cone_h = rh - r;
                     cutters.push(Solid::cylinder(at(fy), dir, cone_h, r, rh, segments(rh, tol)));
@@ -570,6 +586,10 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
         expected_genus: 2 * m.holes.len() as i32,
         density_g_cm3: p.print.density_g_cm3,
         process: crate::part::Process::Printed,
+        // measured (issue 18, item 7): the cross holes and counterbores print as teardrops, but
+        // the top of each seat pocket is a 0.3 mm ceiling, and a pad that bulges above its base
+        // (the thumb, the 2s's proximal flat) overhangs
+        supports: Some("seat pockets' top edges (0.3 mm ceilings) and pad overhangs beside the seats"),
         infill: 1.0,
         write_3mf: true,
         features: json!({

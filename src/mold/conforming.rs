@@ -212,6 +212,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         expected_genus: genus,
         density_g_cm3: p.mold.density_g_cm3,
         process: crate::part::Process::Printed,
+        supports: if suffix == "core" { Some("flat ceilings of the sprue and vent openings at the tip end, 2-3 mm above the bed") } else { None },
         infill: 1.0,
         write_3mf: true,
         features: json!({
@@ -248,6 +249,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         expected_genus: 0,
         density_g_cm3: p.cover.density_g_cm3,
         process: crate::part::Process::Cast,
+        supports: None,
         infill: 1.0,
         write_3mf: false,
         features: json!({

@@ -61,7 +61,17 @@ fn base_solid(p: &RigParams, l: &Layout) -> Solid {
     let recess = Solid::cylinder([0.0, 0.0, l.seat_floor], UP, p.sensor.board_thickness_mm + 1.0, r_seat, r_seat, segments(r_seat, tol));
     let half = p.sensor.tail_width_mm / 2.0 + p.base.tail_slot_clearance_mm;
     let slot = Solid::cuboid([0.0, -half, l.base_top - p.sensor.board_thickness_mm - p.base.tail_slot_clearance_mm], [w / 2.0 + 1.0, half, l.base_top]);
-    let cut = Solid::union_all(&[recess, slot]).expect("two cutters");
+    // where the slot runs under the guide sleeve, a 45° gable roof: the sleeve prints over it
+    // without a bridge or support
+    let roof = Solid::hull(&[
+        [0.0, -half, l.base_top - 0.01],
+        [0.0, half, l.base_top - 0.01],
+        [0.0, 0.0, l.base_top + half],
+        [w / 2.0 + 1.0, -half, l.base_top - 0.01],
+        [w / 2.0 + 1.0, half, l.base_top - 0.01],
+        [w / 2.0 + 1.0, 0.0, l.base_top + half],
+    ]);
+    let cut = Solid::union_all(&[recess, slot, roof]).expect("three cutters");
     body.difference(&cut)
 }
 
@@ -207,6 +217,7 @@ pub fn build(p: &RigParams) -> Result<Built> {
         expected_genus: 1,
         density_g_cm3: p.print.density_g_cm3,
         process: crate::part::Process::Printed,
+        supports: None,
         infill: p.infill,
         write_3mf: true,
         features: json!({
@@ -229,6 +240,7 @@ pub fn build(p: &RigParams) -> Result<Built> {
         expected_genus: 0,
         density_g_cm3: p.print.density_g_cm3,
         process: crate::part::Process::Printed,
+        supports: None,
         infill: p.infill,
         write_3mf: true,
         features: json!({
