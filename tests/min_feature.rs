@@ -22,7 +22,8 @@ fn advice_by_part() -> Vec<(String, usize)> {
 fn narrow_walls_are_found_where_the_design_has_them_and_nowhere_else() {
     let found = advice_by_part();
     let flagged: Vec<&str> = found.iter().filter(|(_, n)| *n > 0).map(|(p, _)| p.as_str()).collect();
-    assert_eq!(flagged, vec!["fingertip-2s", "mold-2s-core"], "{found:?}");
+    // hand-index is the 2s fingertip (params/hand.toml)
+    assert_eq!(flagged, vec!["fingertip-2s", "hand-index", "mold-2s-core"], "{found:?}");
     let lip = tipforge::checks::min_feature::narrow_walls(&{
         let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec!["fingertip-2s".into()], preview: false };
         let (loaded, _) = load_all(&opts).unwrap();
