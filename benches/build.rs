@@ -27,7 +27,7 @@ fn main() {
     ];
     println!("{:<32} {:>6} {:>12} {:>12} {:>12}", "group", "runs", "median ms", "min ms", "max ms");
     for (label, only) in groups {
-        let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only, preview: false };
+        let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only, preview: false, slice: false };
         let mut times = Vec::new();
         for _ in 0..runs {
             let t0 = Instant::now();
@@ -46,12 +46,12 @@ fn main() {
     }
     // every default part as `tipforge build` makes them: files built in parallel (rayon), checks,
     // STL and 3MF bytes, nothing written
-    let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![], preview: false };
+    let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![], preview: false, slice: false };
     let mut times = Vec::new();
     for _ in 0..runs {
         let t0 = Instant::now();
         let (loaded, _) = load_all(&opts).expect("params load");
-        let outs = tipforge::build::outputs_of_all(&loaded, &opts.out_dir, false, None).expect("build");
+        let outs = tipforge::build::outputs_of_all(&loaded, &opts.out_dir, false, false, None).expect("build");
         assert!(outs.iter().all(|o| o.violations.is_empty()));
         times.push(t0.elapsed().as_secs_f64() * 1000.0);
     }
@@ -102,7 +102,7 @@ fn single(only: &str, runs: usize) {
             times.push(t0.elapsed().as_secs_f64() * 1000.0);
         }
     } else {
-        let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![only.to_string()], preview: false };
+        let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![only.to_string()], preview: false, slice: false };
         for _ in 0..runs {
             let t0 = Instant::now();
             let (loaded, _) = load_all(&opts).expect("params load");

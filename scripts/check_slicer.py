@@ -297,6 +297,11 @@ def check_part(name, entry, root, work):
             fails.append(("slicer error", "no '; estimated printing time (normal mode) =' line"))
         if s1["filament_g"] is None:
             fails.append(("slicer error", "no '; total filament used [g] =' line"))
+        # `tipforge build --slice` wrote its own numbers into the manifest: they must be this slice's
+        pr = entry.get("print")
+        if pr is not None and s1["time_s"] is not None and s1["filament_g"] is not None:
+            if abs(pr.get("time_s", -1) - s1["time_s"]) > 0.01 * s1["time_s"] + 1 or abs(pr.get("filament_g", -1) - s1["filament_g"]) > 0.01 * s1["filament_g"] + 0.01:
+                fails.append(("manifest print numbers disagree", f"manifest {pr.get('time_s')} s / {pr.get('filament_g')} g, slicer {s1['time_s']} s / {s1['filament_g']} g"))
 
     if s1 is None:
         return fails, record, t1

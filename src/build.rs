@@ -17,6 +17,9 @@ pub struct Options {
     pub only: Vec<String>,
     /// Also write `<part>.png` previews.
     pub preview: bool,
+    /// Also slice every printed part with PrusaSlicer (print time and filament into the manifest
+    /// and the summary).
+    pub slice: bool,
 }
 
 /// What one built part reports in the summary.
@@ -210,14 +213,14 @@ pub struct Outputs {
 
 /// Builds one loaded file and renders its outputs: parts, checks, STL, 3MF and previews. The parts
 /// of a file are serialised in parallel.
-pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool) -> Result<Outputs> {
+pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool, slice: bool) -> Result<Outputs> {
     let t0 = Instant::now();
     let Built { parts, assemblies, violations, sections, notes } = build_job(&l.job)?;
     let per_part_ms = t0.elapsed().as_secs_f64() * 1000.0 / parts.len().max(1) as f64;
     let sha = manifest::sha256_hex(l.src.text.as_bytes());
     let mut out = Outputs { files: Vec::new(), entries: Vec::new(), summaries: Vec::new(), violations, sections, notes };
-    let per_part: Vec<_> = parts.par_iter().map(|part| part_outputs(part, out_dir, preview)).collect();
-    for (part, (violations, advice, files)) in parts.iter().zip(per_part) {
+    let per_part: Vec<PartOutputs> = parts.par_iter().map(|part| part_outputs(part, out_dir, preview, slice)).collect::<Result<_>>()?;
+    for (part, (violations, advice, files, print)) in parts.iter().zip(per_part) {
         out.violations.extend(violations);
         let names: Vec<String> = files.iter().filter_map(|(p, _)| p.file_name().and_then(|n| n.to_str()).map(str::to_string)).collect();
         let mut entry = manifest::entry(part, &l.rel, &sha, &names);
@@ -225,6 +228,13 @@ pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool) -> Result<Outputs> 
             e.insert("printability".into(), serde_json::json!(advice.iter().map(|v| format!("{}: {}", v.rule, v.measured)).collect::<Vec<_>>()));
         }
         out.notes.extend(advice.iter().map(|v| format!("{}: printability: {} (measured: {})", v.part, v.rule, v.measured)));
+        if let (Some(pr), serde_json::Value::Object(e)) = (&print, &mut entry) {
+            e.insert(
+                "print".into(),
+                serde_json::json!({"time_s": pr.time_s, "filament_g": pr.filament_g, "layers": pr.layers, "profile": crate::slicer::PROFILE_NAME, "slicer": "PrusaSlicer"}),
+            );
+            out.notes.push(format!("{}: prints in {}, {:.2} g of PLA, {} layers (PrusaSlicer, {})", part.name, crate::slicer::hms(pr.time_s), pr.filament_g, pr.layers, crate::slicer::PROFILE_NAME));
+        }
         out.entries.push((part.name.clone(), entry));
         out.summaries.push(Summary { name: part.name.clone(), triangles: part.mesh.triangles.len(), volume_mm3: part.volume_mm3(), mass_g: part.mass_g(), millis: per_part_ms });
         out.files.extend(files);
@@ -235,19 +245,21 @@ pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool) -> Result<Outputs> 
 }
 
 /// A part's checks and files: STL, 3MF when asked, PNG preview when asked.
-type PartOutputs = (Vec<crate::checks::Violation>, Vec<crate::checks::Violation>, Vec<(PathBuf, Vec<u8>)>);
+type PartOutputs = (Vec<crate::checks::Violation>, Vec<crate::checks::Violation>, Vec<(PathBuf, Vec<u8>)>, Option<crate::slicer::Print>);
 
-fn part_outputs(part: &Part, out_dir: &Path, preview: bool) -> PartOutputs {
+fn part_outputs(part: &Part, out_dir: &Path, preview: bool, slice: bool) -> Result<PartOutputs> {
     let violations = crate::checks::run(part);
     let advice = crate::checks::advise(part);
-    let mut files = vec![(out_dir.join(format!("{}.stl", part.name)), stl::to_bytes(&part.mesh))];
+    let stl_bytes = stl::to_bytes(&part.mesh);
+    let print = if slice && part.process == crate::part::Process::Printed { Some(crate::slicer::slice(&part.name, &stl_bytes)?) } else { None };
+    let mut files = vec![(out_dir.join(format!("{}.stl", part.name)), stl_bytes)];
     if part.write_3mf {
         files.push((out_dir.join(format!("{}.3mf", part.name)), threemf::to_bytes(&[threemf::Object::printed(&part.name, &part.mesh)])));
     }
     if preview {
         files.push((out_dir.join(format!("{}.png", part.name)), crate::preview::render(&part.mesh, &part.name)));
     }
-    (violations, advice, files)
+    Ok((violations, advice, files, print))
 }
 
 /// An assembly view's 3MF (reference objects typed as such) and preview.
@@ -263,11 +275,11 @@ fn assembly_outputs(a: &Assembly, out_dir: &Path, preview: bool) -> Vec<(PathBuf
 
 /// Builds every loaded file, in parallel (rayon: one task per file, and per part within a file).
 /// The results come back in the files' order, so the output is the same whatever the scheduling.
-pub fn outputs_of_all(loaded: &[Loaded], out_dir: &Path, preview: bool, bar: Option<&crate::progress::Progress>) -> Result<Vec<Outputs>> {
+pub fn outputs_of_all(loaded: &[Loaded], out_dir: &Path, preview: bool, slice: bool, bar: Option<&crate::progress::Progress>) -> Result<Vec<Outputs>> {
     loaded
         .par_iter()
         .map(|l| {
-            let o = outputs_of(l, out_dir, preview);
+            let o = outputs_of(l, out_dir, preview, slice);
             if let Some(bar) = bar {
                 bar.step(format!("built {}", l.rel));
             }
@@ -289,7 +301,10 @@ pub fn run(opts: &Options) -> Result<Report> {
     let mut sections = Map::new();
     let mut notes = Vec::new();
     let bar = crate::progress::Progress::new("build", loaded.len() + 1);
-    for o in outputs_of_all(&loaded, &opts.out_dir, opts.preview, Some(&bar))? {
+    if opts.slice {
+        crate::slicer::version()?;
+    }
+    for o in outputs_of_all(&loaded, &opts.out_dir, opts.preview, opts.slice, Some(&bar))? {
         notes.extend(o.notes);
         violations.extend(o.violations);
         for (k, m) in o.sections {

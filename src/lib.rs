@@ -16,3 +16,4 @@ pub mod preview;
 pub mod progress;
 pub mod rig;
 pub mod sensor;
+pub mod slicer;

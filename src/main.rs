@@ -25,6 +25,11 @@ enum Cmd {
         /// (params/fingertip-1s.toml, ../lab/my-finger.toml). A mold's fingertip is read from the
         /// mold file's own folder.
         parts: Vec<String>,
+        /// Also slice every printed part with PrusaSlicer (scripts/install-slicer) using the
+        /// repository's profile (0.4 mm nozzle, 0.2 mm layers, PLA): print time and filament mass
+        /// go into the manifest and the summary.
+        #[arg(long)]
+        slice: bool,
         /// Also write a shaded PNG preview of every part (out/<part>.png).
         #[arg(long)]
         preview: bool,
@@ -131,8 +136,8 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.cmd {
-        Cmd::Build { params, out, parts, preview } => {
-            let report = tipforge::build::run(&tipforge::build::Options { params_dir: params, out_dir: out, only: parts, preview })?;
+        Cmd::Build { params, out, parts, preview, slice } => {
+            let report = tipforge::build::run(&tipforge::build::Options { params_dir: params, out_dir: out, only: parts, preview, slice })?;
             for (f, why) in &report.skipped {
                 say!("skipped {f}: {why}");
             }

@@ -11,7 +11,7 @@ fn tmp(name: &str) -> PathBuf {
 }
 
 fn opts(out: &Path) -> Options {
-    Options { params_dir: PathBuf::from("params"), out_dir: out.to_path_buf(), only: vec![], preview: false }
+    Options { params_dir: PathBuf::from("params"), out_dir: out.to_path_buf(), only: vec![], preview: false, slice: false }
 }
 
 #[test]

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use tipforge::build::{build_job, load_all, Options};
 
 fn advice_by_part() -> Vec<(String, usize)> {
-    let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![], preview: false };
+    let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![], preview: false, slice: false };
     let (loaded, _) = load_all(&opts).unwrap();
     let mut out = Vec::new();
     for l in &loaded {
@@ -25,7 +25,7 @@ fn narrow_walls_are_found_where_the_design_has_them_and_nowhere_else() {
     // hand-index is the 2s fingertip (params/hand.toml)
     assert_eq!(flagged, vec!["fingertip-2s", "hand-index", "mold-2s-core"], "{found:?}");
     let narrow = |stem: &str| {
-        let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![stem.into()], preview: false };
+        let opts = Options { params_dir: PathBuf::from("params"), out_dir: PathBuf::from("out"), only: vec![stem.into()], preview: false, slice: false };
         let (loaded, _) = load_all(&opts).unwrap();
         let mesh = build_job(&loaded[0].job).unwrap().parts.remove(0).mesh;
         tipforge::checks::min_feature::narrow_walls(&mesh, tipforge::checks::min_feature::MIN_FEATURE_MM)
