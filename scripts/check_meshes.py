@@ -545,8 +545,11 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
     plugs = None
     zp, zt = mold["parting_z_mm"], mold["flange_top_z_mm"]
     for o in mold["openings"]:
-        r = o["radius_mm"] + (zt - zp + 2) * math.tan(math.radians(45)) + 0.2
-        c = m3.Manifold.cylinder(zt - zp + 3, r, r, 48).translate([o["xy"][0], o["xy"][1], zp])
+        # an opening starts at the rim (the parting plane) or, for a vent from a pocket in the
+        # ceiling, at the pocket's top
+        z0 = o.get("from_z_mm", zp)
+        r = o["radius_mm"] + (zt - zp + 2) * math.tan(math.radians(45)) + 0.2 if "from_z_mm" not in o else o["radius_mm"] + 0.2
+        c = m3.Manifold.cylinder(zt - z0 + 3, r, r, 48).translate([o["xy"][0], o["xy"][1], z0])
         plugs = c if plugs is None else plugs + c
     sealed = regions(box - (pieces + plugs))
     cav_sealed = [r for r in sealed if (r ^ cavity).volume() > 0.5 * cavity.volume()]
@@ -608,13 +611,15 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
     # short probes, slivers where two surfaces meet closer still (a seat's flare meets the end plane)
     step = np.clip(0.2 * np.sqrt(cav.area_faces), 1e-5, 0.004)
     probes = cav.triangles_center + step[:, None] * cav.face_normals
-    opening = np.zeros(len(probes), bool)
+    cand = np.zeros(len(probes), bool)
     for o in mold["openings"]:
-        opening |= np.hypot(probes[:, 0] - o["xy"][0], probes[:, 1] - o["xy"][1]) < o["radius_mm"] + (zt - zp) + 0.05
+        near = np.hypot(probes[:, 0] - o["xy"][0], probes[:, 1] - o["xy"][1]) < o["radius_mm"] + (zt - zp) + 0.05
+        # a pocket vent is drilled from 0.3 mm below the pocket's top (tipforge's mold), so the faces
+        # it opens lie up to that far below it
+        cand |= near & (probes[:, 2] > (o["from_z_mm"] - 0.35 if "from_z_mm" in o else zp - 0.05))
     core_m = trimesh.Trimesh(*_mesh_of(core))
     shell_m = trimesh.Trimesh(*_mesh_of(shell))
     # where the sprue or a vent opens onto the cavity, a face looks into the opening's air
-    cand = opening & (probes[:, 2] > zp - 0.05)
     if cand.any():
         idx = np.nonzero(cand)[0]
         air = ~(core_m.contains(probes[idx]) | shell_m.contains(probes[idx]))

@@ -81,11 +81,13 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
         }
     }
 
-    // 3. the sprue and every vent open straight into the cavity
+    // 3. the sprue and every vent open straight into the cavity: at the rim, or, for a vent from a
+    // pocket in the ceiling, at the pocket's top
+    let pocket_top = |xy: [f64; 2]| a.pocket_vents.iter().find(|q| (q[0] - xy[0]).abs() < 1e-9 && (q[1] - xy[1]).abs() < 1e-9).map(|q| q[2]);
     let mut openings_ok = Vec::new();
     for (what, (xy, _)) in std::iter::once(("sprue", a.sprue)).chain(a.vents.iter().map(|v| ("vent", *v))) {
         let top = [xy[0], xy[1], a.z_top + 1.0];
-        let bottom = [xy[0], xy[1], a.z_parting - 0.02];
+        let bottom = [xy[0], xy[1], pocket_top(xy).map(|z| z - 0.1).unwrap_or(a.z_parting - 0.02)];
         let clear = a.core.ray_hits(top, bottom).is_empty() && a.shell.ray_hits(top, bottom).is_empty();
         let into = a.cavity.contains(bottom, a.z_top + 2.0);
         openings_ok.push(clear && into);
@@ -114,7 +116,8 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     let r_sprue = super::conforming::sprue_radius(m, w + 2.0) + 0.2;
     plugs.push(Solid::cylinder([a.sprue.0[0], a.sprue.0[1], a.z_parting], [0.0, 0.0, 1.0], w + 3.0, r_sprue, r_sprue, 48));
     for (xy, r) in &a.vents {
-        plugs.push(Solid::cylinder([xy[0], xy[1], a.z_parting], [0.0, 0.0, 1.0], w + 3.0, r + 0.2, r + 0.2, 24));
+        let from = pocket_top(*xy).unwrap_or(a.z_parting);
+        plugs.push(Solid::cylinder([xy[0], xy[1], from], [0.0, 0.0, 1.0], a.z_top + 1.0 - from, r + 0.2, r + 0.2, 24));
     }
     // air "reaches" a face of the mold when it has volume within 0.05 mm of it; the kernel can leave
     // zero-volume films along the faces where the pieces touch, which connect nothing

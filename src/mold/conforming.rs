@@ -31,6 +31,8 @@ pub struct Assembled {
     pub z_top: f64,
     pub sprue: ([f64; 2], f64),
     pub vents: Vec<([f64; 2], f64)>,
+    /// The tops of the ceiling pockets that got a vent (mold frame, grown by the shrinkage).
+    pub pocket_vents: Vec<P3>,
     /// Key pins and their holes, in the assembled pose.
     pub pins: Vec<Solid>,
     pub holes: Vec<Solid>,
@@ -157,10 +159,22 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     for v in &vent_xy {
         openings_cut.push(Solid::cylinder([v[0], v[1], ze - 1.0], UP, w + 2.0, rv, rv, segments(rv, tol)));
     }
+    // a vent from every high point of the cavity's ceiling that is not the rim: the recessed flat
+    // round a tilted seat is an upside-down pocket whose highest point traps air (issue 18, item 3)
+    let pockets: Vec<P3> = flat_pocket_tops(p, &l).into_iter().map(|q| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1]), center[2] + k * (q[2] - center[2])]).collect();
+    let mut plug_vents = Vec::new();
+    for q in &pockets {
+        let from = q[2] - 0.3;
+        plug_vents.push(Solid::cylinder([q[0], q[1], from], UP, z_top + 1.0 - from, rv, rv, segments(rv, tol)));
+    }
     let flange = Solid::cuboid([x_lo_k, -half_y, ze], [x_hi, half_y, z_top]).difference(&Solid::union_all(&openings_cut).expect("sprue"));
     let mut core_parts = vec![flange, plug_k];
     core_parts.extend(pins.iter().cloned());
     let core = Solid::union_all(&core_parts).expect("core");
+    let core = match Solid::union_all(&plug_vents) {
+        Some(v) => core.difference(&v),
+        None => core,
+    };
     // the shell's hollow: the cup carried on 1 mm above the parting plane, so the shell's top face
     // is cut through, not left coplanar with the cup's rim (which can leave a film over the rim)
     let mut shell_cut = vec![outer.intersection(&region(1.0, 0.0)).scale_about(k, center)];
@@ -185,12 +199,32 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
         z_parting: ze,
         z_top,
         sprue: (sprue_xy, rs),
-        vents: vent_xy.iter().map(|v| (*v, rv)).collect(),
+        vents: vent_xy.iter().map(|v| (*v, rv)).chain(pockets.iter().map(|q| ([q[0], q[1]], rv))).collect(),
+        pocket_vents: pockets.clone(),
         pins,
         holes,
         bounds: ([x_lo_k, -half_y, z_lo], [x_hi, half_y, z_top]),
     };
     Ok((l, a))
+}
+
+/// The highest point, in the pour orientation (+z of the mold frame), of every tilted recessed flat
+/// (nominal size, mold frame). The flat is cut into the core's plug, so seen from the cavity below
+/// it is a pocket in the ceiling; a level flat has no single high point and needs no vent.
+pub fn flat_pocket_tops(p: &MoldParams, l: &Layout) -> Vec<P3> {
+    let up = [0.0, 0.0, 1.0];
+    let mut out = Vec::new();
+    for (d, s) in l.domes.iter().zip(&p.fingertip.sensors) {
+        let n = l.frame.dir_to_mold(d.normal);
+        let along = sub(up, scale(n, crate::mesh::dot(up, n)));
+        let len = crate::mesh::norm(along);
+        if len < 0.5f64.to_radians().sin() {
+            continue;
+        }
+        let c = l.frame.to_mold(d.base);
+        out.push(crate::mesh::add(c, scale(along, s.flat_diameter_mm / 2.0 / len)));
+    }
+    out
 }
 
 pub fn build(p: &MoldParams) -> Result<MoldBuild> {
@@ -225,7 +259,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         extra: Default::default(),
     };
     // to_assembled: rows of a 3×4 matrix [R | t] mapping the print pose back to the assembly
-    let core = piece(core_print, "core", 1 + p.mold.vent_count as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
+    let core = piece(core_print, "core", 1 + p.mold.vent_count as i32 + a.pocket_vents.len() as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
     let shell = piece(shell_print, "shell", 0, json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]]));
     let domes: Vec<serde_json::Value> = l
         .domes
@@ -322,7 +356,19 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("flange_top_z_mm".into(), json!(a.z_top));
     entry.insert("key_clearance_mm".into(), json!(p.mold.key_clearance_mm));
     entry.insert("draft_deg".into(), json!(p.mold.draft_deg));
-    entry.insert("openings".into(), json!(std::iter::once(a.sprue).chain(a.vents.iter().copied()).map(|(xy, r)| json!({"xy": xy, "radius_mm": r})).collect::<Vec<_>>()));
+    let pocket_top = |xy: [f64; 2]| a.pocket_vents.iter().find(|q| q[0] == xy[0] && q[1] == xy[1]).map(|q| q[2]);
+    entry.insert(
+        "openings".into(),
+        json!(std::iter::once(a.sprue)
+            .chain(a.vents.iter().copied())
+            .map(|(xy, r)| match pocket_top(xy) {
+                // a vent from a pocket in the cavity's ceiling starts at the pocket's top
+                Some(z) => json!({"xy": xy, "radius_mm": r, "from_z_mm": z, "why": "the top of the recessed flat round a tilted seat, a pocket in the ceiling that traps air"}),
+                None => json!({"xy": xy, "radius_mm": r}),
+            })
+            .collect::<Vec<_>>()),
+    );
+    entry.insert("pour_up".into(), json!([0.0, 0.0, 1.0]));
     entry.insert(
         "domes_assembled".into(),
         json!(l
