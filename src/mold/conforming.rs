@@ -33,6 +33,8 @@ pub struct Assembled {
     pub vents: Vec<([f64; 2], f64)>,
     /// The tops of the ceiling pockets that got a vent (mold frame, grown by the shrinkage).
     pub pocket_vents: Vec<P3>,
+    /// Ceiling pockets a straight vent cannot reach (it would cross the cavity): they trap air.
+    pub unvented_pockets: Vec<P3>,
     /// Key pins and their holes, in the assembled pose.
     pub pins: Vec<Solid>,
     pub holes: Vec<Solid>,
@@ -162,6 +164,11 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     // a vent from every high point of the cavity's ceiling that is not the rim: the recessed flat
     // round a tilted seat is an upside-down pocket whose highest point traps air (issue 18, item 3)
     let pockets: Vec<P3> = flat_pocket_tops(p, &l).into_iter().map(|q| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1]), center[2] + k * (q[2] - center[2])]).collect();
+    // a pocket is vented straight up only where the vent stays in the plug: a vent that would cross
+    // the cavity again (a pocket high on a flank) is left out and reported, not drilled
+    let (pockets, unvented): (Vec<P3>, Vec<P3>) = pockets.into_iter().partition(|q| {
+        [[0.0, 0.0], [rv, 0.0], [-rv, 0.0], [0.0, rv], [0.0, -rv]].iter().all(|o| cavity.ray_hits([q[0] + o[0], q[1] + o[1], q[2] + 0.05], [q[0] + o[0], q[1] + o[1], ze + 0.01]).is_empty())
+    });
     let mut plug_vents = Vec::new();
     for q in &pockets {
         let from = q[2] - 0.3;
@@ -171,10 +178,21 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let mut core_parts = vec![flange, plug_k];
     core_parts.extend(pins.iter().cloned());
     let core = Solid::union_all(&core_parts).expect("core");
-    let core = match Solid::union_all(&plug_vents) {
-        Some(v) => core.difference(&v),
-        None => core,
-    };
+    // each vent must add exactly one through hole: one that would also cut a window elsewhere (into
+    // the ridge between two flats, say) is left out and its pocket reported
+    let mut core = core;
+    let mut vented = Vec::new();
+    let mut unvented = unvented;
+    for (q, v) in pockets.iter().zip(&plug_vents) {
+        let cut = core.difference(v);
+        if cut.genus() == core.genus() + 1 && cut.bodies() == 1 {
+            core = cut;
+            vented.push(*q);
+        } else {
+            unvented.push(*q);
+        }
+    }
+    let pockets = vented;
     // the shell's hollow: the cup carried on 1 mm above the parting plane, so the shell's top face
     // is cut through, not left coplanar with the cup's rim (which can leave a film over the rim)
     let mut shell_cut = vec![outer.intersection(&region(1.0, 0.0)).scale_about(k, center)];
@@ -201,6 +219,7 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
         sprue: (sprue_xy, rs),
         vents: vent_xy.iter().map(|v| (*v, rv)).chain(pockets.iter().map(|q| ([q[0], q[1]], rv))).collect(),
         pocket_vents: pockets.clone(),
+        unvented_pockets: unvented,
         pins,
         holes,
         bounds: ([x_lo_k, -half_y, z_lo], [x_hi, half_y, z_top]),
@@ -369,6 +388,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
             .collect::<Vec<_>>()),
     );
     entry.insert("pour_up".into(), json!([0.0, 0.0, 1.0]));
+    entry.insert("unvented_pockets".into(), json!(a.unvented_pockets));
     entry.insert(
         "domes_assembled".into(),
         json!(l
@@ -399,5 +419,9 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("cover_thickness_mm".into(), json!(p.cover.thickness_mm));
     entry.insert("chordal_tolerance_mm".into(), json!(p.mold.chordal_tolerance_mm));
     manifest.insert(name.to_string(), serde_json::Value::Object(entry));
-    Ok(MoldBuild { parts: vec![core, shell, cover], assemblies: vec![assembly], violations, manifest, notes: notes(name, &mat) })
+    let mut notes = notes(name, &mat);
+    for q in &a.unvented_pockets {
+        notes.push(format!("{name}: WARNING: the cavity's ceiling has a pocket at ({:.2}, {:.2}, {:.2}) (mold frame) that no straight vent reaches: it will trap air beside the dome; tilt the seat or the demolding direction", q[0], q[1], q[2]));
+    }
+    Ok(MoldBuild { parts: vec![core, shell, cover], assemblies: vec![assembly], violations, manifest, notes })
 }
