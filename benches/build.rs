@@ -94,7 +94,7 @@ fn single(only: &str, runs: usize) {
     let mut times = Vec::new();
     if only == "rig-plunger" {
         let src = tipforge::params::read_source(std::path::Path::new("params/rig.toml")).unwrap();
-        let p = tipforge::params::rig::RigParams::from_source(&src, "rig").unwrap();
+        let p = tipforge::params::rig::RigParams::from_source(&src, "rig", std::path::Path::new("params")).unwrap();
         for _ in 0..runs {
             let t0 = Instant::now();
             let m = tipforge::rig::plunger_print(&p).to_mesh();

@@ -401,10 +401,16 @@ def params_match_manifest(c):
             if abs(body[key] - c.features[feat]) > 1e-9:
                 return "manifest features must come from the parameter file", f"{key}: {body[key]} vs {c.features[feat]}"
         sensors = c.params.get("sensor", [])
+        # the seats are made for the sensor board the file names: pocket = board + 2 x clearance, as
+        # deep as the board is thick
+        board = c.params.get("_board", {})
         for i, (sp, sf) in enumerate(zip(sensors, c.features.get("seats", []))):
-            for key in ("seat_diameter_mm", "seat_depth_mm"):
-                if abs(sp[key] - sf[key]) > 1e-9:
-                    return "manifest features must come from the parameter file", f"sensor[{i}].{key}: {sp[key]} vs {sf[key]}"
+            want = {"seat_diameter_mm": board.get("board_diameter_mm", float("nan")) + 2 * sp.get("seat_clearance_mm", 0.2),
+                    "seat_depth_mm": board.get("board_thickness_mm", float("nan")),
+                    "dome_diameter_mm": board.get("dome_diameter_mm", float("nan"))}
+            for key, w in want.items():
+                if not abs(w - sf[key]) <= 1e-9:
+                    return "manifest features must come from the parameter file and its sensor board", f"sensor[{i}].{key}: {w} vs {sf[key]}"
 
 
 # ---------------------------------------------------------------- assemblies
@@ -688,6 +694,9 @@ def check_part(name, entry, root):
     src = entry.get("source")
     if src and Path(src).exists():
         params = tomllib.loads(Path(src).read_text())
+        board = params.get("sensor_board")
+        if isinstance(board, str) and (Path(src).parent / board).exists():
+            params["_board"] = tomllib.loads((Path(src).parent / board).read_text())
     c = Ctx(name, entry, mesh, other, params, root)
     out = []
     for r in RULES:

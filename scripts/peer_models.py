@@ -103,7 +103,9 @@ def channel_pieces(body, s, tol):
         t = ((b[0] - a[0]) / ln, (b[1] - a[1]) / ln)
         n = max(1, math.ceil(ln / 0.25))
         pts += [((a[0] + (b[0] - a[0]) * k / n, a[1] + (b[1] - a[1]) * k / n), t) for k in range(n + 1)]
-    w, d = s["channel_width_mm"], s["channel_depth_mm"]
+    # the tail channel is the sensor board's tail + 2 x the clearance (params/fsr-8mm.toml)
+    board = tomllib.loads((ROOT / "params" / params_sensor_board()).read_text())
+    w, d = board["tail_width_mm"] + 2 * s.get("channel_clearance_mm", 0.1), s["channel_depth_mm"]
     zb = -body.pd - 2.0
 
     def edge(q, t, side):
@@ -177,6 +179,10 @@ def screw_recess(m):
         return m["hole_diameter_mm"], m["head_diameter_mm"], m["head_depth_mm"]
     hole, dk, k = PAN_HEADS[m["screw"]]
     return hole, dk + 2 * m.get("head_clearance_mm", 0.3), k + m.get("head_sink_mm", 0.2)
+
+
+def params_sensor_board():
+    return tomllib.loads((ROOT / "params/fingertip-1s.toml").read_text()).get("sensor_board", "fsr-8mm.toml")
 
 
 def plunger_spec():

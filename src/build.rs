@@ -151,17 +151,17 @@ pub fn load_all(opts: &Options) -> Result<(Vec<Loaded>, Skipped)> {
                 problems.push(src.problem(
                     "kind",
                     format!("{kind:?}").to_lowercase(),
-                    format!("{stem} is not a part file: `build` makes fingertips, rigs, molds and hand sets; sensor and protocol files are read by `simulate`"),
+                    format!("{stem} is not a part file: `build` makes fingertips, rigs, molds and hand sets; sensor board files are named by the parts, sensor and protocol files are read by `simulate`"),
                 ));
             } else {
-                skipped.push((path.display().to_string(), "not a part file (sensor or protocol parameters)"));
+                skipped.push((path.display().to_string(), "not a part file (a sensor board, sensor model or protocol)"));
             }
             continue;
         }
         let rel = path.display().to_string();
         let job = match kind {
-            Kind::Fingertip => crate::fingertip::load(&src, &stem).map(Job::Fingertip),
-            Kind::Rig => crate::params::rig::RigParams::from_source(&src, &stem).map(Job::Rig),
+            Kind::Fingertip => crate::fingertip::load(&src, &stem, path.parent().unwrap_or(Path::new("."))).map(Job::Fingertip),
+            Kind::Rig => crate::params::rig::RigParams::from_source(&src, &stem, path.parent().unwrap_or(Path::new("."))).map(Job::Rig),
             Kind::Mold => crate::mold::load(&src, &stem, path.parent().unwrap_or(Path::new("."))).map(Job::Mold),
             Kind::Hand => crate::hand::load(&src, &stem, path.parent().unwrap_or(Path::new("."))).map(Job::Hand),
             _ => {

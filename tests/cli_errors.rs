@@ -8,6 +8,8 @@ fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("tipforge-cli-{}-{}", name, std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(d.join("params")).unwrap();
+    // every part file names the sensor board beside it
+    std::fs::copy("params/fsr-8mm.toml", d.join("params/fsr-8mm.toml")).unwrap();
     d
 }
 
@@ -27,7 +29,7 @@ fn many_problems_are_reported_at_once_with_lines() {
     let d = dir("many");
     let t = default_text()
         .replace("width_mm = 16.0", "width_mm = -16.0")
-        .replace("seat_depth_mm = 0.3", "seat_depth_mm = 0.0")
+        .replace("seat_clearance_mm = 0.2", "seat_clearance_mm = -0.2")
         .replace("chordal_tolerance_mm = 0.01", "chordal_tolerance_mm = 0.5")
         .replace("length_mm = 28.0", "lenght_mm = 28.0");
     std::fs::write(d.join("params/f.toml"), &t).unwrap();
@@ -40,7 +42,7 @@ fn many_problems_are_reported_at_once_with_lines() {
     std::fs::write(d.join("params/f.toml"), t.replace("lenght_mm", "length_mm")).unwrap();
     let (code, text) = run(&d);
     assert_eq!(code, 2);
-    for needle in ["body.width_mm = -16", "sensor[0].seat_depth_mm = 0", "print.chordal_tolerance_mm = 0.5", "between 0.001 and 0.05"] {
+    for needle in ["body.width_mm = -16", "sensor[0].seat_clearance_mm = -0.2", "print.chordal_tolerance_mm = 0.5", "between 0.001 and 0.05"] {
         assert!(text.contains(needle), "missing {needle:?} in:\n{text}");
     }
     assert!(text.contains("f.toml:") && text.lines().filter(|l| l.contains("f.toml:")).count() >= 3, "{text}");
@@ -62,7 +64,7 @@ fn geometric_rules_name_the_offending_key() {
         ("[[sensor]]", "", "1 or 2 sensors"),
         ("position_from_tip_mm = 9.0", "position_from_tip_mm = 27.0", "sensor[0].position_from_tip_mm"),
         ("lateral_offset_mm = 0.0", "lateral_offset_mm = 5.0", "flat region"),
-        ("seat_depth_mm = 0.3", "seat_depth_mm = 12.5", "seat pocket leaves a wall"),
+        ("seat_clearance_mm = 0.2", "seat_clearance_mm = 0.9", "the flat region must be at least the seat diameter 10.4 mm (the board's diameter + 2 × seat_clearance_mm)"),
         ("holes = [[5.0, 1.3]]", "holes = [[5.0, 1.3], [7.0, 1.3]]", "too close to hole 0"),
         ("holes = [[5.0, 1.3]]", "holes = [[12.0, 1.3]]", "must pass through the socket"),
         ("socket_width_mm = 10.0", "socket_width_mm = 15.0", "mount.socket_width_mm"),
@@ -120,7 +122,7 @@ fn missing_kind_and_unknown_kind_are_input_errors() {
 fn rig_rules_name_the_offending_key() {
     let base = std::fs::read_to_string("params/rig.toml").unwrap();
     let cases = [
-        ("face_diameter_mm = 8.0", "face_diameter_mm = 9.0", "plunger.face_diameter_mm"),
+        ("frustum_top_diameter_mm = 14.0", "face_diameter_mm = 9.0\nfrustum_top_diameter_mm = 14.0", "plunger.face_diameter_mm"),
         ("\nclearance_mm = 0.3", "\nclearance_mm = 0.05", "does not print reliably"),
         ("plate_diameter_mm = 60.0", "plate_diameter_mm = 30.0", "must carry the weights"),
         ("stem_length_mm = 24.0", "stem_length_mm = 2.0", "cannot hold the plunger vertical"),
@@ -152,10 +154,14 @@ fn the_stop_gap_follows_from_stiffness_and_top_load() {
         ("max_load_g = 1000.0 ", "stop_gap_mm = 0.3\nmax_load_g = 1000.0 ", "the stop would carry part of the load; use at least 0.50 mm"),
         ("dome_stiffness_n_per_mm = 20.0", "dome_stiffness_n_per_mm = 8.0", "the dome is too soft for this load"),
     ];
+    let board = std::fs::read_to_string("params/fsr-8mm.toml").unwrap();
     for (i, (from, to, needle)) in cases.iter().enumerate() {
-        assert!(base.contains(from), "fixture lacks {from}");
         let d = dir(&format!("stop{i}"));
-        std::fs::write(d.join("params/rig.toml"), base.replacen(from, to, 1)).unwrap();
+        // the stiffness is the sensor board's
+        let (file, text) = if from.starts_with("dome_stiffness") { ("params/fsr-8mm.toml", &board) } else { ("params/rig.toml", &base) };
+        assert!(text.contains(from), "fixture lacks {from}");
+        std::fs::write(d.join("params/rig.toml"), &base).unwrap();
+        std::fs::write(d.join(file), text.replacen(from, to, 1)).unwrap();
         let (code, text) = run(&d);
         assert_eq!(code, 2, "{text}");
         assert!(text.contains(needle) && text.contains("plunger.stop_gap_mm"), "case {i}: expected {needle:?} in\n{text}");
@@ -387,6 +393,7 @@ fn build_takes_paths_as_well_as_stems() {
     let lab = d.join("lab");
     std::fs::create_dir_all(&lab).unwrap();
     std::fs::copy("params/fingertip-1s.toml", lab.join("my-finger.toml")).unwrap();
+    std::fs::copy("params/fsr-8mm.toml", lab.join("fsr-8mm.toml")).unwrap();
     std::fs::write(lab.join("my-mold.toml"), std::fs::read_to_string("params/mold-1s.toml").unwrap().replace("fingertip-1s.toml", "my-finger.toml")).unwrap();
     let o = d.join("out");
     let s = |p: &Path| p.to_str().unwrap().to_string();

@@ -55,7 +55,7 @@ fn seats_are_flat_planes_at_the_stated_depth() {
     use tipforge::mesh::{dot, sub};
     for file in ["params/fingertip-1s.toml", "params/fingertip-2s.toml"] {
         let src = tipforge::params::read_source(Path::new(file)).unwrap();
-        let p = tipforge::fingertip::load(&src, "t").unwrap();
+        let p = tipforge::fingertip::load(&src, "t", std::path::Path::new("params")).unwrap();
         let part = tipforge::fingertip::build(&p).unwrap();
         let shape = Shape::new(&p.body);
         for s in &p.sensors {

@@ -21,6 +21,7 @@ struct Gen {
     pos: [f64; 2],
     lat: f64,
     seat_d: f64,
+    #[allow(dead_code)]
     depth: f64,
     flat_extra: f64,
     ch_w: f64,
@@ -67,7 +68,7 @@ fn toml_of(g: &Gen) -> String {
     let pad_depth = g.pad_frac * g.thickness;
     let r_trans = (g.width / 2.0).powi(2) / pad_depth;
     let mut t = format!(
-        "kind = \"fingertip\"\n[body]\nlength_mm = {}\nwidth_mm = {}\nthickness_mm = {}\npad_longitudinal_radius_mm = {}\npad_transverse_radius_mm = {}\ntip_radius_mm = {}\n",
+        "kind = \"fingertip\"\nsensor_board = \"fsr-8mm.toml\"\n[body]\nlength_mm = {}\nwidth_mm = {}\nthickness_mm = {}\npad_longitudinal_radius_mm = {}\npad_transverse_radius_mm = {}\ntip_radius_mm = {}\n",
         g.length,
         g.width,
         g.thickness,
@@ -79,8 +80,8 @@ fn toml_of(g: &Gen) -> String {
         if g.two { vec![(g.pos[0], 0.0, g.width * 0.35), (g.pos[1], 0.0, -g.width * 0.35)] } else { vec![(g.pos[0] + 2.0, g.lat, g.lat + g.ch_off)] };
     for (pos, lat, off) in sensors {
         t += &format!(
-            "[[sensor]]\nposition_from_tip_mm = {pos}\nlateral_offset_mm = {lat}\nseat_diameter_mm = {}\nseat_depth_mm = {}\nflat_diameter_mm = {}\ndome_diameter_mm = {}\ndome_height_mm = 1.0\nchannel_width_mm = {}\nchannel_depth_mm = {}\nchannel_offset_mm = {off}\n",
-            g.seat_d, g.depth, g.seat_d + g.flat_extra, g.seat_d - 0.5, if g.two { g.ch_w.min(1.6) } else { g.ch_w }, g.ch_d
+            "[[sensor]]\nposition_from_tip_mm = {pos}\nlateral_offset_mm = {lat}\nseat_clearance_mm = {}\nflat_diameter_mm = {}\nchannel_clearance_mm = {}\nchannel_depth_mm = {}\nchannel_offset_mm = {off}\n",
+            (g.seat_d - 7.0) * 0.2, 8.6 + 2.0 * (g.seat_d - 7.0) * 0.2 + g.flat_extra, if g.two { 0.1 } else { (g.ch_w - 1.4).max(0.0) / 2.0 }, g.ch_d
         );
     }
     let holes: Vec<String> = g.holes.iter().map(|h| format!("[{}, {}]", h[0], h[1])).collect();
@@ -103,7 +104,7 @@ fn random_parameter_sets_build_valid_meshes_or_clear_errors() {
         .run(&gen(), |g| {
             let text = toml_of(&g);
             let src = SourceFile::parse("random.toml", text.clone()).expect("generated TOML parses");
-            match tipforge::fingertip::load(&src, "random") {
+            match tipforge::fingertip::load(&src, "random", std::path::Path::new("params")) {
                 Ok(p) => {
                     let part = tipforge::fingertip::build(&p).map_err(|e| TestCaseError::fail(format!("valid params failed to build: {e}\n{text}")))?;
                     let v = tipforge::checks::run(&part);
@@ -135,7 +136,7 @@ fn corrupted_files_never_panic() {
             let end = (at..=(at + del).min(t.len())).rev().find(|&i| t.is_char_boundary(i)).unwrap_or(at);
             t.replace_range(at..end, ins);
             let r = std::panic::catch_unwind(|| match SourceFile::parse("c.toml", t.clone()) {
-                Ok(src) => tipforge::fingertip::load(&src, "c").map(|p| tipforge::fingertip::build(&p).map(|_| ())).map(|_| ()),
+                Ok(src) => tipforge::fingertip::load(&src, "c", std::path::Path::new("params")).map(|p| tipforge::fingertip::build(&p).map(|_| ())).map(|_| ()),
                 Err(e) => Err(e),
             });
             prop_assert!(r.is_ok(), "panicked on:\n{}", t);

@@ -7,7 +7,7 @@ fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("tipforge-hand-{}-{}", name, std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(d.join("params")).unwrap();
-    for f in ["fingertip-1s.toml", "fingertip-2s.toml", "fingertip-thumb.toml", "hand.toml"] {
+    for f in ["fingertip-1s.toml", "fingertip-2s.toml", "fingertip-thumb.toml", "hand.toml", "fsr-8mm.toml"] {
         std::fs::copy(Path::new("params").join(f), d.join("params").join(f)).unwrap();
     }
     d

@@ -37,7 +37,7 @@ fn geometric_rules_still_apply_through_the_family() {
     let bad = text.replacen("flat_diameter_mm = ", "flat_diameter_mm = 30.0 # was ", 1);
     assert_ne!(bad, text, "fixture: params/fingertip-1s.toml has no flat_diameter_mm");
     let src = tipforge::params::SourceFile::parse("bad.toml", bad).unwrap();
-    assert!(tipforge::params::fingertip::FingertipParams::from_source(&src, "bad").is_ok(), "params alone type-checks");
-    let e = tipforge::fingertip::load(&src, "bad").unwrap_err();
+    assert!(tipforge::params::fingertip::FingertipParams::from_source(&src, "bad", std::path::Path::new("params")).is_ok(), "params alone type-checks");
+    let e = tipforge::fingertip::load(&src, "bad", std::path::Path::new("params")).unwrap_err();
     assert!(e.is_input() && e.to_string().contains("bad.toml:"), "{e}");
 }

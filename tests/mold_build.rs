@@ -125,6 +125,7 @@ fn dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(d.join("params")).unwrap();
     std::fs::copy("params/fingertip-1s.toml", d.join("params/fingertip-1s.toml")).unwrap();
+    std::fs::copy("params/fsr-8mm.toml", d.join("params/fsr-8mm.toml")).unwrap();
     d
 }
 
@@ -173,13 +174,14 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
     for needle in ["cover.thickness_mm", "mold.vent_diameter_mm", "mold.key_count"] {
         assert!(text.contains(needle), "missing {needle} in\n{text}");
     }
-    // a dome taller than the cover over its seat breaks through it
-    let tip = std::fs::read_to_string("params/fingertip-1s.toml").unwrap();
-    std::fs::write(d.join("params/fingertip-1s.toml"), tip.replacen("dome_height_mm = 1.0", "dome_height_mm = 2.6", 1)).unwrap();
+    // a dome taller than the cover over its seat breaks through it (the dome is the sensor board's)
+    let board = std::fs::read_to_string("params/fsr-8mm.toml").unwrap();
+    assert!(board.contains("dome_height_mm = 1.0"));
+    std::fs::write(d.join("params/fsr-8mm.toml"), board.replacen("dome_height_mm = 1.0", "dome_height_mm = 2.6", 1)).unwrap();
     let (code, text) = run(&d, &base);
     assert_eq!(code, 2, "{text}");
     assert!(text.contains("breaks through") && text.contains("cover.thickness_mm"), "{text}");
-    std::fs::write(d.join("params/fingertip-1s.toml"), tip).unwrap();
+    std::fs::write(d.join("params/fsr-8mm.toml"), board).unwrap();
     // a tilted opening with a deeper parting plane builds and passes every check
     let tilted = base
         .replacen("demolding_tilt_deg = 0.0", "demolding_tilt_deg = 5.0", 1)

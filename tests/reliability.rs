@@ -8,6 +8,7 @@ fn dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("tipforge-rel-{}-{}", name, std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(d.join("params")).unwrap();
+    std::fs::copy("params/fsr-8mm.toml", d.join("params/fsr-8mm.toml")).unwrap();
     d
 }
 

@@ -417,10 +417,11 @@ pub fn to_print(p: P3) -> P3 {
 }
 
 /// Builds the fingertip.
-/// Reads a fingertip file's parameters ([`crate::params`] parses and type-checks) and applies the
+/// Reads a fingertip file's parameters and its sensor board (relative to `dir`; [`crate::params`]
+/// parses and type-checks) and applies the
 /// family's geometric rules, every problem named with its line.
-pub fn load(src: &crate::params::SourceFile, default_name: &str) -> Result<FingertipParams> {
-    let p = FingertipParams::from_source(src, default_name)?;
+pub fn load(src: &crate::params::SourceFile, default_name: &str, dir: &std::path::Path) -> Result<FingertipParams> {
+    let p = FingertipParams::from_source(src, default_name, dir)?;
     rules_on(&p, src)?;
     Ok(p)
 }

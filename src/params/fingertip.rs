@@ -12,6 +12,8 @@ use serde::Deserialize;
 pub struct RawFingertip {
     pub kind: Option<String>,
     pub name: Option<String>,
+    /// The sensor board file the seats are made for.
+    pub sensor_board: Option<String>,
     pub body: Option<RawBody>,
     pub sensor: Option<Vec<RawSensor>>,
     pub mount: Option<RawMount>,
@@ -34,12 +36,9 @@ pub struct RawBody {
 pub struct RawSensor {
     pub position_from_tip_mm: Option<f64>,
     pub lateral_offset_mm: Option<f64>,
-    pub seat_diameter_mm: Option<f64>,
-    pub seat_depth_mm: Option<f64>,
+    pub seat_clearance_mm: Option<f64>,
     pub flat_diameter_mm: Option<f64>,
-    pub dome_diameter_mm: Option<f64>,
-    pub dome_height_mm: Option<f64>,
-    pub channel_width_mm: Option<f64>,
+    pub channel_clearance_mm: Option<f64>,
     pub channel_depth_mm: Option<f64>,
     pub channel_offset_mm: Option<f64>,
 }
@@ -162,7 +161,7 @@ impl FingertipParams {
     /// Parses and type-checks a fingertip file, collecting every problem. The geometric rules that
     /// need the body shape (seat on the pad, walls, hole clearances) live with the family and are
     /// applied by [`crate::fingertip::load`].
-    pub fn from_source(src: &SourceFile, default_name: &str) -> Result<FingertipParams> {
+    pub fn from_source(src: &SourceFile, default_name: &str, dir: &std::path::Path) -> Result<FingertipParams> {
         let mut c = Collector::new(src);
         c.problems.extend(src.unknown_keys(&SCHEMA));
         if !c.problems.is_empty() {
@@ -178,12 +177,13 @@ impl FingertipParams {
         let (Some(body), Some(sensors), Some(mount), Some(print), Some(name)) = (body, sensors, mount, print, name) else {
             return super::finish(None, c.problems);
         };
-        let v = validate_raw(&mut c, name, &body, &sensors, &mount, &print);
+        let board = super::board::named(&mut c, src, dir)?;
+        let v = validate_raw(&mut c, name, &body, &sensors, &mount, &print, board.as_ref());
         super::finish(v, c.problems)
     }
 }
 
-fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSensor], m: &RawMount, p: &RawPrint) -> Option<FingertipParams> {
+fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSensor], m: &RawMount, p: &RawPrint, board: Option<&super::board::Board>) -> Option<FingertipParams> {
     let length = c.positive(b.length_mm, "body.length_mm", "28.0");
     let width = c.positive(b.width_mm, "body.width_mm", "16.0");
     let thickness = c.positive(b.thickness_mm, "body.thickness_mm", "14.0");
@@ -252,27 +252,37 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
         let k = |f: &str| format!("sensor[{i}].{f}");
         let pos = c.positive(s.position_from_tip_mm, &k("position_from_tip_mm"), "9.0");
         let lat = c.req(Some(s.lateral_offset_mm.unwrap_or(0.0)), &k("lateral_offset_mm"), "0.0");
-        let seat_d = c.positive(s.seat_diameter_mm, &k("seat_diameter_mm"), "9.0");
-        let seat_depth = c.positive(s.seat_depth_mm, &k("seat_depth_mm"), "0.3");
+        // the pocket takes the board with a clearance, as deep as the board is thick; the dome is
+        // the board's; the tail channel is the tail with a clearance
+        let seat_clear = c.or_within(s.seat_clearance_mm, 0.2, &k("seat_clearance_mm"), 0.0, 2.0);
+        let ch_clear = c.or_within(s.channel_clearance_mm, 0.1, &k("channel_clearance_mm"), 0.0, 2.0);
+        let seat_d = match (board, seat_clear) {
+            (Some(b), Some(cl)) => Some(b.board_diameter_mm + 2.0 * cl),
+            _ => None,
+        };
+        let seat_depth = board.map(|b| b.board_thickness_mm);
         let flat_d = c.positive(s.flat_diameter_mm, &k("flat_diameter_mm"), "10.0");
-        let dome_d = c.positive(s.dome_diameter_mm, &k("dome_diameter_mm"), "8.0");
-        let dome_h = c.positive(s.dome_height_mm, &k("dome_height_mm"), "1.0");
-        let ch_w = c.positive(s.channel_width_mm, &k("channel_width_mm"), "2.0");
+        let dome_d = board.map(|b| b.dome_diameter_mm);
+        let dome_h = board.map(|b| b.dome_height_mm);
+        let ch_w = match (board, ch_clear) {
+            (Some(b), Some(cl)) => Some(b.tail_width_mm + 2.0 * cl),
+            _ => None,
+        };
         let ch_d = c.positive(s.channel_depth_mm, &k("channel_depth_mm"), "0.5");
         let ch_off = c.req(Some(s.channel_offset_mm.unwrap_or(lat.unwrap_or(0.0))), &k("channel_offset_mm"), "0.0");
         if let (Some(sd), Some(fd)) = (seat_d, flat_d) {
             if fd < sd {
-                c.push(&k("flat_diameter_mm"), fd, format!("the flat region must be at least the seat diameter {sd} mm"));
+                c.push(&k("flat_diameter_mm"), fd, format!("the flat region must be at least the seat diameter {sd} mm (the board's diameter + 2 × seat_clearance_mm)"));
             }
         }
         if let (Some(sd), Some(dd)) = (seat_d, dome_d) {
             if dd > sd {
-                c.push(&k("dome_diameter_mm"), dd, format!("the dome must fit in the seat (seat_diameter_mm = {sd})"));
+                c.push("sensor_board", dd, format!("the board's dome must fit in the seat ({sd} mm)"));
             }
         }
         if let (Some(sd), Some(w)) = (seat_d, ch_w) {
             if w > sd {
-                c.push(&k("channel_width_mm"), w, format!("the tail channel must be narrower than the seat ({sd} mm)"));
+                c.push(&k("channel_clearance_mm"), w, format!("the tail channel ({w} mm: the board's tail + 2 × this) must be narrower than the seat ({sd} mm)"));
             }
         }
         if let (Some(pos), Some(lat), Some(sd), Some(dp), Some(fd), Some(dd), Some(dh), Some(w), Some(d), Some(o)) =

@@ -133,7 +133,7 @@ fn read_finger(c: &mut Collector, src: &SourceFile, finger: &'static str, dir: &
         t.remove("name");
     }
     let stem = format!("{}-{finger}", src.value.get("name").and_then(|v| v.as_str()).unwrap_or("hand"));
-    match FingertipParams::from_source(&merged, &stem) {
+    match FingertipParams::from_source(&merged, &stem, dir) {
         Ok(params) => Ok(Some(Finger { finger, fingertip_file: file.to_string(), overridden, src: merged, params })),
         Err(Error::Input(p)) => {
             c.problems.extend(p.0.into_iter().map(|pr| on_hand_file(pr, src, finger, &overridden)));

@@ -6,6 +6,7 @@
 //! fields, read by `fields_of`, so no key is listed twice) → serde raw structs, table by table
 //! (type errors per table) → `TryFrom`-style validation that collects every semantic problem.
 
+pub mod board;
 pub mod fingertip;
 pub mod hand;
 pub mod mold;
@@ -28,10 +29,11 @@ pub enum Kind {
     Sensor,
     Protocol,
     Hand,
+    SensorBoard,
 }
 
 impl Kind {
-    pub const NAMES: &'static [&'static str] = &["fingertip", "rig", "mold", "hand", "sensor", "protocol"];
+    pub const NAMES: &'static [&'static str] = &["fingertip", "rig", "mold", "hand", "sensor_board", "sensor", "protocol"];
     fn parse(s: &str) -> Option<Kind> {
         Some(match s {
             "fingertip" => Kind::Fingertip,
@@ -40,6 +42,7 @@ impl Kind {
             "sensor" => Kind::Sensor,
             "protocol" => Kind::Protocol,
             "hand" => Kind::Hand,
+            "sensor_board" => Kind::SensorBoard,
             _ => return None,
         })
     }

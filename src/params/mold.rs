@@ -182,7 +182,7 @@ impl MoldParams {
                     Ok(fsrc) => match super::kind_of(&fsrc) {
                         Ok(super::Kind::Fingertip) => {
                             let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("fingertip").to_string();
-                            match FingertipParams::from_source(&fsrc, &stem) {
+                            match FingertipParams::from_source(&fsrc, &stem, dir) {
                                 Ok(p) => Some((f.clone(), p, fsrc.clone())),
                                 Err(Error::Input(p)) => {
                                     c.problems.extend(p.0);

@@ -9,17 +9,6 @@ use super::{fields_of, Collector, Schema, SourceFile};
 use crate::error::Result;
 use serde::Deserialize;
 
-#[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RawSensor {
-    pub disc_diameter_mm: Option<f64>,
-    pub board_thickness_mm: Option<f64>,
-    pub dome_diameter_mm: Option<f64>,
-    pub dome_height_mm: Option<f64>,
-    pub tail_width_mm: Option<f64>,
-    pub tail_length_mm: Option<f64>,
-    pub dome_stiffness_n_per_mm: Option<f64>,
-}
 
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -61,13 +50,12 @@ pub struct RawRigPrint {
     pub chordal_tolerance_mm: Option<f64>,
 }
 
-static SENSOR_SCHEMA: Schema = Schema { fields: fields_of::<RawSensor>, tables: &[] };
 static BASE_SCHEMA: Schema = Schema { fields: fields_of::<RawBase>, tables: &[] };
 static PLUNGER_SCHEMA: Schema = Schema { fields: fields_of::<RawPlunger>, tables: &[] };
 static RIG_PRINT_SCHEMA: Schema = Schema { fields: fields_of::<RawRigPrint>, tables: &[] };
 pub static SCHEMA: Schema = Schema {
-    fields: || &["kind", "name"],
-    tables: &[("sensor", false, &SENSOR_SCHEMA), ("base", false, &BASE_SCHEMA), ("plunger", false, &PLUNGER_SCHEMA), ("print", false, &RIG_PRINT_SCHEMA)],
+    fields: || &["kind", "name", "sensor_board"],
+    tables: &[("base", false, &BASE_SCHEMA), ("plunger", false, &PLUNGER_SCHEMA), ("print", false, &RIG_PRINT_SCHEMA)],
 };
 
 #[derive(Debug, Clone, PartialEq)]
@@ -128,22 +116,26 @@ pub struct RigParams {
 pub const MIN_CLEARANCE_MM: f64 = 0.15;
 
 impl RigParams {
-    pub fn from_source(src: &SourceFile, default_name: &str) -> Result<RigParams> {
+    /// Parses and type-checks a rig file and the sensor board file it names (relative to `dir`).
+    pub fn from_source(src: &SourceFile, default_name: &str, dir: &std::path::Path) -> Result<RigParams> {
         let mut c = Collector::new(src);
         c.problems.extend(src.unknown_keys(&SCHEMA));
         if !c.problems.is_empty() {
             return super::finish(None, c.problems);
         }
         let mut problems = Vec::new();
-        let s: Option<RawSensor> = src.table("sensor", &mut problems);
         let b: Option<RawBase> = src.table("base", &mut problems);
         let p: Option<RawPlunger> = src.table("plunger", &mut problems);
         let pr: Option<RawRigPrint> = src.table("print", &mut problems);
         c.problems.extend(problems);
-        let (Some(s), Some(b), Some(p), Some(pr)) = (s, b, p, pr) else {
+        let board = super::board::named(&mut c, src, dir)?;
+        let (Some(b), Some(p), Some(pr)) = (b, p, pr) else {
             return super::finish(None, c.problems);
         };
         let Some(name) = super::part_name(src, default_name, &mut c.problems) else {
+            return super::finish(None, c.problems);
+        };
+        let Some(s) = board else {
             return super::finish(None, c.problems);
         };
         let v = validate(&mut c, name, &s, &b, &p, &pr);
@@ -154,19 +146,17 @@ impl RigParams {
 /// Standard gravity (m/s²): grams of weight to newtons.
 const GRAVITY_M_S2: f64 = 9.80665;
 
-fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &RawPlunger, pr: &RawRigPrint) -> Option<RigParams> {
-    let disc = c.positive(s.disc_diameter_mm, "sensor.disc_diameter_mm", "12.0");
-    let board = c.positive(s.board_thickness_mm, "sensor.board_thickness_mm", "0.3");
-    let dome_d = c.positive(s.dome_diameter_mm, "sensor.dome_diameter_mm", "8.0");
-    let dome_h = c.positive(s.dome_height_mm, "sensor.dome_height_mm", "1.0");
-    let tail_w = c.positive(s.tail_width_mm, "sensor.tail_width_mm", "4.0");
-    let tail_l = c.positive(s.tail_length_mm, "sensor.tail_length_mm", "30.0");
+fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBase, p: &RawPlunger, pr: &RawRigPrint) -> Option<RigParams> {
+    // the sensor is the board file's
+    let (disc, board, dome_d, dome_h, tail_w, tail_l) =
+        (Some(s.board_diameter_mm), Some(s.board_thickness_mm), Some(s.dome_diameter_mm), Some(s.dome_height_mm), Some(s.tail_width_mm), Some(s.tail_length_mm));
     let bw = c.positive(b.width_mm, "base.width_mm", "50.0");
     let bh = c.positive(b.height_mm, "base.height_mm", "8.0");
     let seat_c = c.or_within(b.seat_clearance_mm, 0.2, "base.seat_clearance_mm", 0.0, 2.0);
     let slot_c = c.or_within(b.tail_slot_clearance_mm, 0.3, "base.tail_slot_clearance_mm", 0.0, 3.0);
     let sleeve_wall = c.positive(b.sleeve_wall_mm, "base.sleeve_wall_mm", "3.0");
-    let face = c.positive(Some(p.face_diameter_mm.unwrap_or(8.0)), "plunger.face_diameter_mm", "8.0");
+    // the frustum's small face is the sensing area unless the file says otherwise
+    let face = c.positive(Some(p.face_diameter_mm.unwrap_or(s.sensing_diameter_mm)), "plunger.face_diameter_mm", "8.0");
     let ftop = c.positive(p.frustum_top_diameter_mm, "plunger.frustum_top_diameter_mm", "14.0");
     let fh = c.positive(p.frustum_height_mm, "plunger.frustum_height_mm", "6.0");
     let stem_d = c.positive(p.stem_diameter_mm, "plunger.stem_diameter_mm", "16.0");
@@ -181,7 +171,7 @@ fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &Raw
     let sdepth = c.positive(p.scale_depth_mm, "plunger.scale_depth_mm", "0.4");
     let print = print_params(c, &RawPrint { density_g_cm3: pr.density_g_cm3, min_wall_mm: pr.min_wall_mm, chordal_tolerance_mm: pr.chordal_tolerance_mm }, 1.2);
     let infill = c.or_within(pr.infill, 1.0, "print.infill", 0.05, 1.0);
-    let stiffness = c.or_within(s.dome_stiffness_n_per_mm, 20.0, "sensor.dome_stiffness_n_per_mm", 0.1, 1.0e5);
+    let stiffness = Some(s.dome_stiffness_n_per_mm);
     let max_load = c.or_within(p.max_load_g, 1000.0, "plunger.max_load_g", 0.0, 1.0e5);
     let margin = c.or_within(p.stop_margin_mm, 0.2, "plunger.stop_margin_mm", 0.0, 10.0);
     // the stop must not carry load: the plate lands on the sleeve only after the dome has taken the
@@ -224,7 +214,7 @@ fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &Raw
     }
     if let (Some(d), Some(disc)) = (dome_d, disc) {
         if d > disc {
-            c.push("sensor.dome_diameter_mm", d, format!("the dome must fit on the disc ({disc} mm)"));
+            c.push("sensor_board", d, format!("the board's dome must fit on its disc ({disc} mm)"));
         }
     }
     if let (Some(f), Some(t)) = (face, ftop) {
@@ -292,9 +282,9 @@ fn validate(c: &mut Collector, name: String, s: &RawSensor, b: &RawBase, p: &Raw
     if let (Some(tl), Some(bw), Some(disc)) = (tail_l, bw, disc) {
         if tl < bw / 2.0 - disc / 2.0 {
             c.push(
-                "sensor.tail_length_mm",
+                "sensor_board",
                 tl,
-                format!("the tail does not reach the base edge ({:.1} mm from the seat): widen nothing, just check the sensor; the base is too wide for it", bw / 2.0 - disc / 2.0),
+                format!("the board's tail ({tl} mm) does not reach the base edge ({:.1} mm from the seat): make the base narrower (base.width_mm)", bw / 2.0 - disc / 2.0),
             );
         }
     }

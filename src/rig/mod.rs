@@ -297,7 +297,7 @@ mod tests {
 
     fn params() -> RigParams {
         let text = std::fs::read_to_string("params/rig.toml").unwrap();
-        RigParams::from_source(&SourceFile::parse("rig.toml", text).unwrap(), "rig").unwrap()
+        RigParams::from_source(&SourceFile::parse("rig.toml", text).unwrap(), "rig", std::path::Path::new("params")).unwrap()
     }
 
     #[test]
