@@ -225,3 +225,20 @@ fn every_tilted_flat_gets_a_vent_from_its_top() {
         }
     }
 }
+
+/// The cover's thickness over each sensing area is measured and stated: over the dome's centre it is
+/// the nominal plus the flat's recess less the dome's height (the outer surface follows the pad).
+#[test]
+fn the_cover_over_the_sensing_area_is_measured_and_stated() {
+    let p = load("mold-1s");
+    let (l, a) = conforming::assemble(&p).unwrap();
+    let over = checks::cover_over_domes(&l, &a);
+    assert_eq!(over.len(), 1);
+    let centre = over[0]["centre_mm"].as_f64().unwrap();
+    // the flat's recess at the seat's centre: from the fingertip's own seat placement
+    let seat = tipforge::fingertip::seat(&tipforge::fingertip::Shape::new(&p.fingertip.body), &p.fingertip.sensors[0]).unwrap();
+    let expected = p.cover.thickness_mm + seat.flat_depth - p.fingertip.sensors[0].dome_height_mm;
+    assert!((centre - expected).abs() < 0.02, "centre {centre} vs {expected}");
+    let (lo, hi) = (over[0]["min_mm"].as_f64().unwrap(), over[0]["max_mm"].as_f64().unwrap());
+    assert!(lo < centre && hi >= centre - 1e-9 && lo > 0.5, "{lo} {hi}");
+}

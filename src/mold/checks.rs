@@ -47,6 +47,46 @@ pub fn offset_along(shape: &Shape, t: f64, q: P3, dir: P3, s0: f64) -> Option<f6
 }
 
 /// The conforming mold's checks. Returns the violations and the measurements.
+/// The cover's thickness over each sensing area, along the seat normal: at the centre and on
+/// circles at half and nine tenths of the dome's radius (8 points each), from the dome cavity to
+/// the outer surface. The outer surface follows the finger's pad (its exact offset), so the
+/// thickness over a dome is the nominal plus the flat's recess less the dome's height, and less
+/// toward the dome's edge where the pad curves away.
+pub fn cover_over_domes(l: &Layout, a: &Assembled) -> Vec<Value> {
+    let mut out = Vec::new();
+    for d in &l.domes {
+        let n = d.normal;
+        let helper = if n[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+        let u = crate::mesh::unit(crate::mesh::cross(n, helper));
+        let v = crate::mesh::cross(n, u);
+        let along = |q: P3| -> Option<f64> {
+            let from = crate::mesh::sub(q, crate::mesh::scale(n, 0.5));
+            let to = crate::mesh::add(q, crate::mesh::scale(n, d.depth + 10.0));
+            let hits = a.cover.ray_hits(from, to);
+            (hits.len() >= 2).then(|| hits[1] - hits[0])
+        };
+        let centre = along(d.base);
+        let mut ring = Vec::new();
+        for frac in [0.5, 0.9] {
+            for k in 0..8 {
+                let t = k as f64 * std::f64::consts::FRAC_PI_4;
+                let q = crate::mesh::add(d.base, crate::mesh::add(crate::mesh::scale(u, frac * d.dome_r * t.cos()), crate::mesh::scale(v, frac * d.dome_r * t.sin())));
+                if let Some(x) = along(q) {
+                    ring.push(x);
+                }
+            }
+        }
+        let all: Vec<f64> = centre.into_iter().chain(ring.iter().copied()).collect();
+        out.push(json!({
+            "centre_mm": centre,
+            "min_mm": all.iter().cloned().fold(f64::INFINITY, f64::min),
+            "max_mm": all.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+            "points": all.len(),
+        }));
+    }
+    out
+}
+
 pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>, Value) {
     let name = p.name.as_str();
     let m = &p.mold;
@@ -209,6 +249,7 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     }
 
     let measured = json!({
+        "cover_over_sensing_area_mm": cover_over_domes(l, a),
         "overlap_core_shell_mm3": core_shell,
         "overlap_core_cavity_mm3": core_cav,
         "overlap_shell_cavity_mm3": shell_cav,

@@ -340,6 +340,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         )),
     );
     entry.insert("parting_plane_z_mm".into(), json!(a.z_parting));
+    let over_domes = measured["cover_over_sensing_area_mm"].clone();
     entry.insert("checks".into(), measured);
     entry.insert("assembly".into(), json!(format!("{name}-assembly.3mf")));
     // the fingertip's print frame (y, z, x of the design frame) → design → the mold's frame
@@ -420,6 +421,16 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("chordal_tolerance_mm".into(), json!(p.mold.chordal_tolerance_mm));
     manifest.insert(name.to_string(), serde_json::Value::Object(entry));
     let mut notes = notes(name, &mat);
+    for (i, c) in over_domes.as_array().into_iter().flatten().enumerate() {
+        let f = |k: &str| c[k].as_f64().unwrap_or(f64::NAN);
+        notes.push(format!(
+            "{name}: cover over sensor[{i}]'s sensing area: {:.2} mm at its centre, {:.2}-{:.2} mm over it (nominal {} mm: the outer surface follows the finger's pad, so the flat's recess adds and the pad's curvature takes away)",
+            f("centre_mm"),
+            f("min_mm"),
+            f("max_mm"),
+            p.cover.thickness_mm
+        ));
+    }
     for q in &a.unvented_pockets {
         notes.push(format!("{name}: WARNING: the cavity's ceiling has a pocket at ({:.2}, {:.2}, {:.2}) (mold frame) that no straight vent reaches: it will trap air beside the dome; tilt the seat or the demolding direction", q[0], q[1], q[2]));
     }
