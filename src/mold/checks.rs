@@ -87,6 +87,18 @@ pub fn cover_over_domes(l: &Layout, a: &Assembled) -> Vec<Value> {
     out
 }
 
+/// Where air leaves the cavity: the sprue and rim vents from the parting plane up, a pocket vent from
+/// its pocket's top.
+pub fn exits(a: &Assembled) -> Vec<super::trapped_air::Exit> {
+    std::iter::once(a.sprue)
+        .chain(a.vents.iter().copied())
+        .map(|(xy, r)| {
+            let from_z = a.pocket_vents.iter().find(|q| q[0] == xy[0] && q[1] == xy[1]).map(|q| q[2]).unwrap_or(a.z_parting);
+            super::trapped_air::Exit { xy, r, from_z }
+        })
+        .collect()
+}
+
 pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>, Value) {
     let name = p.name.as_str();
     let m = &p.mold;
@@ -248,7 +260,20 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
         out.push(v(name, "no undercut: each cavity face must belong to the piece that leaves in its direction", format!("{wrong} of {checked} faces face the wrong piece")));
     }
 
+    // 7. no air trapped in the cavity's ceiling when poured
+    let air = super::trapped_air::pockets(&a.cavity.to_mesh(), a.z_parting, &exits(a));
+    // a pocket the build could not vent is already reported (a warning and the manifest's
+    // unvented_pockets); any other is a fault of the mold
+    let unexpected: Vec<_> = air.iter().filter(|q| !a.unvented_pockets.iter().any(|u| mesh::norm(sub(q.apex, *u)) < 1.0)).collect();
+    if !unexpected.is_empty() {
+        out.push(v(
+            name,
+            "no air may be trapped when the mold is poured: every high point of the cavity needs a way up to the rim or a vent",
+            unexpected.iter().map(|q| format!("a pocket {:.2} mm deep at ({:.2}, {:.2}, {:.2})", q.depth_mm, q.apex[0], q.apex[1], q.apex[2])).collect::<Vec<_>>().join("; "),
+        ));
+    }
     let measured = json!({
+        "trapped_air_pockets": air.iter().map(|q| json!({"apex": q.apex, "depth_mm": q.depth_mm})).collect::<Vec<_>>(),
         "cover_over_sensing_area_mm": cover_over_domes(l, a),
         "overlap_core_shell_mm3": core_shell,
         "overlap_core_cavity_mm3": core_cav,

@@ -163,32 +163,43 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     }
     // a vent from every high point of the cavity's ceiling that is not the rim: the recessed flat
     // round a tilted seat is an upside-down pocket whose highest point traps air (issue 18, item 3)
-    let pockets: Vec<P3> = flat_pocket_tops(p, &l).into_iter().map(|q| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1]), center[2] + k * (q[2] - center[2])]).collect();
-    // a pocket is vented straight up only where the vent stays in the plug: a vent that would cross
-    // the cavity again (a pocket high on a flank) is left out and reported, not drilled
-    let (pockets, unvented): (Vec<P3>, Vec<P3>) = pockets.into_iter().partition(|q| {
-        [[0.0, 0.0], [rv, 0.0], [-rv, 0.0], [0.0, rv], [0.0, -rv]].iter().all(|o| cavity.ray_hits([q[0] + o[0], q[1] + o[1], q[2] + 0.05], [q[0] + o[0], q[1] + o[1], ze + 0.01]).is_empty())
-    });
-    let mut plug_vents = Vec::new();
-    for q in &pockets {
-        let from = q[2] - 0.3;
-        plug_vents.push(Solid::cylinder([q[0], q[1], from], UP, z_top + 1.0 - from, rv, rv, segments(rv, tol)));
-    }
+    let grow_p = |q: P3| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1]), center[2] + k * (q[2] - center[2])];
+    let pockets: Vec<(P3, P3)> = flat_pocket_tops(p, &l).into_iter().map(|(q, c)| (grow_p(q), grow_p(c))).collect();
+    // each pocket gets a vent straight up from its top, unless that would cross the cavity again or
+    // cut a second hole (into the ridge between two flats, say): such a pocket is reported
     let flange = Solid::cuboid([x_lo_k, -half_y, ze], [x_hi, half_y, z_top]).difference(&Solid::union_all(&openings_cut).expect("sprue"));
     let mut core_parts = vec![flange, plug_k];
     core_parts.extend(pins.iter().cloned());
-    let core = Solid::union_all(&core_parts).expect("core");
-    // each vent must add exactly one through hole: one that would also cut a window elsewhere (into
-    // the ridge between two flats, say) is left out and its pocket reported
-    let mut core = core;
+    let mut core = Solid::union_all(&core_parts).expect("core");
     let mut vented = Vec::new();
-    let mut unvented = unvented;
-    for (q, v) in pockets.iter().zip(&plug_vents) {
-        let cut = core.difference(v);
-        if cut.genus() == core.genus() + 1 && cut.bodies() == 1 {
-            core = cut;
-            vented.push(*q);
-        } else {
+    let mut unvented = Vec::new();
+    for (q, c) in &pockets {
+        let inward = {
+            let d = [c[0] - q[0], c[1] - q[1]];
+            let len = d[0].hypot(d[1]).max(1e-12);
+            [d[0] / len, d[1] / len]
+        };
+        let mut done = false;
+        // only a vent at the very top lets the pocket's air out (one further in starts below it)
+        for step in [0.0] {
+            let at = [q[0] + inward[0] * step, q[1] + inward[1] * step];
+            let clear = [[0.0, 0.0], [rv, 0.0], [-rv, 0.0], [0.0, rv], [0.0, -rv]]
+                .iter()
+                .all(|o| cavity.ray_hits([at[0] + o[0], at[1] + o[1], q[2] + 0.05], [at[0] + o[0], at[1] + o[1], ze + 0.01]).is_empty());
+            if !clear {
+                continue;
+            }
+            let from = q[2] - 0.3 - step;
+            let vent = Solid::cylinder([at[0], at[1], from], UP, z_top + 1.0 - from, rv, rv, segments(rv, tol));
+            let cut = core.difference(&vent);
+            if cut.genus() == core.genus() + 1 && cut.bodies() == 1 {
+                core = cut;
+                vented.push([at[0], at[1], q[2]]);
+                done = true;
+                break;
+            }
+        }
+        if !done {
             unvented.push(*q);
         }
     }
@@ -227,21 +238,23 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     Ok((l, a))
 }
 
-/// The highest point, in the pour orientation (+z of the mold frame), of every tilted recessed flat
-/// (nominal size, mold frame). The flat is cut into the core's plug, so seen from the cavity below
-/// it is a pocket in the ceiling; a level flat has no single high point and needs no vent.
-pub fn flat_pocket_tops(p: &MoldParams, l: &Layout) -> Vec<P3> {
+/// The highest point, in the pour orientation (+z of the mold frame), of every tilted recessed flat,
+/// with the flat's centre (nominal size, mold frame). The flat is cut into the core's plug, so seen from the cavity below
+/// it is a pocket in the ceiling; a level flat has no single high point and needs no vent (air
+/// leaves it sideways, where the pad rises to the flanks).
+pub fn flat_pocket_tops(p: &MoldParams, l: &Layout) -> Vec<(P3, P3)> {
     let up = [0.0, 0.0, 1.0];
     let mut out = Vec::new();
     for (d, s) in l.domes.iter().zip(&p.fingertip.sensors) {
         let n = l.frame.dir_to_mold(d.normal);
         let along = sub(up, scale(n, crate::mesh::dot(up, n)));
         let len = crate::mesh::norm(along);
-        if len < 0.5f64.to_radians().sin() {
+        // a flat tilted so little that its rim rises less than 0.01 mm traps nothing to speak of
+        if len * s.flat_diameter_mm / 2.0 < 0.01 {
             continue;
         }
         let c = l.frame.to_mold(d.base);
-        out.push(crate::mesh::add(c, scale(along, s.flat_diameter_mm / 2.0 / len)));
+        out.push((crate::mesh::add(c, scale(along, s.flat_diameter_mm / 2.0 / len)), c));
     }
     out
 }

@@ -11,6 +11,7 @@
 pub mod checks;
 pub mod conforming;
 pub mod flat;
+pub mod trapped_air;
 
 use crate::fingertip::{self, Seat, Shape};
 use crate::mesh::{self, P3};
