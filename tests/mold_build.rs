@@ -264,3 +264,15 @@ fn the_cavity_traps_air_only_without_the_pocket_vents() {
         assert!(q.apex[0] > l.domes[0].base[0], "{name}: {q:?}");
     }
 }
+
+/// Casting practice: one cover is too little to weigh at 10:1; the summary advises the batch.
+#[test]
+fn the_batch_advice_sizes_the_pour() {
+    let p = load("mold-1s");
+    let b = &tipforge::mold::material(&p, 645.7)["batch"];
+    // one cover: 0.66 g PDMS + 25 % = 0.83 g; agent 0.076 g, 5 % of it = 0.0038 g (the 0.004 g scale)
+    assert!((b["scale_needed_for_one_cover_g"].as_f64().unwrap() - 0.0038).abs() < 2e-4, "{b}");
+    // at least 5 g mixed: 7 covers (6 would be 4.99 g)
+    assert_eq!(b["min_batch_g"].as_f64().unwrap(), 5.0);
+    assert_eq!(b["covers_per_batch"].as_f64().unwrap(), 7.0);
+}

@@ -455,6 +455,31 @@ pub fn material(p: &MoldParams, cover_mm3: f64) -> Value {
         "mold_material": m.name(),
         "max_cure_temperature_c": m.max_cure_c(),
         "cure_advice": cure,
+        "batch": batch(agent, base + agent, c.mix_ratio),
+    })
+}
+
+/// A common lab scale's resolution (g) and how far the mix ratio may drift (fraction): the batch
+/// advice sizes the pour so that the curing agent is weighed to within this.
+pub const SCALE_RESOLUTION_G: f64 = 0.01;
+pub const RATIO_TOLERANCE: f64 = 0.05;
+/// The smallest pour worth mixing and degassing (g): below it the mix is mostly what sticks to the
+/// cup and the stirrer.
+pub const MIN_POUR_G: f64 = 5.0;
+
+/// How much to mix so the ratio holds: the curing agent, the smaller part, must be at least
+/// resolution / tolerance on the scale (0.2 g on a 0.01 g scale for 5 %), so the smallest sound
+/// batch is that times (ratio + 1), and at least MIN_POUR_G; it casts that many covers' worth.
+fn batch(agent_g: f64, per_cover_g: f64, ratio: f64) -> Value {
+    let min_agent = SCALE_RESOLUTION_G / RATIO_TOLERANCE;
+    let min_total = (min_agent * (ratio + 1.0)).max(MIN_POUR_G);
+    let covers = (min_total / per_cover_g).ceil().max(1.0);
+    json!({
+        "scale_resolution_g": SCALE_RESOLUTION_G,
+        "ratio_tolerance": RATIO_TOLERANCE,
+        "scale_needed_for_one_cover_g": agent_g * RATIO_TOLERANCE,
+        "min_batch_g": min_total,
+        "covers_per_batch": covers,
     })
 }
 
@@ -473,6 +498,20 @@ pub fn notes(name: &str, mat: &Value) -> Vec<String> {
             g("youngs_modulus_mpa_estimate")
         ),
         format!("{name}: {} mold — {}", mat["mold_material"].as_str().unwrap_or(""), mat["cure_advice"].as_str().unwrap_or("")),
+        {
+            let b = &mat["batch"];
+            let f = |k: &str| b[k].as_f64().unwrap_or(f64::NAN);
+            format!(
+                "{name}: batch: one cover's {:.2} g of curing agent needs a {:.4} g scale to hold the ratio within {:.0} %; on a {} g scale mix at least {:.1} g ({:.2} g of agent) and cast {:.0} covers from it (print that many molds)",
+                g("curing_agent_g"),
+                f("scale_needed_for_one_cover_g"),
+                100.0 * f("ratio_tolerance"),
+                f("scale_resolution_g"),
+                f("min_batch_g"),
+                f("min_batch_g") / (1.0 + g("sylgard_base_g") / g("curing_agent_g")),
+                f("covers_per_batch")
+            )
+        },
     ]
 }
 
