@@ -1025,6 +1025,20 @@ fn signature(e: Effect, holds: &[HoldData], trials: &[Trial], clip: Option<f64>,
     found.into_iter().map(|l| Window { recording: l.recording, start_s: l.start_s, end_s: l.end_s, statistic: l.statistic }).collect()
 }
 
+/// White noise of a residual segment: 1.4826 × the median absolute deviation of its first
+/// differences, over √2.
+fn local_noise(r: &[f64]) -> f64 {
+    if r.len() < 3 {
+        return 0.0;
+    }
+    let mut d: Vec<f64> = r.windows(2).map(|p| p[1] - p[0]).collect();
+    let mid = d.len() / 2;
+    let med = *d.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    let mut dev: Vec<f64> = d.iter().map(|x| (x - med).abs()).collect();
+    let mad = *dev.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    1.4826 * mad / std::f64::consts::SQRT_2
+}
+
 /// Residual windows per step segment where the model fails.
 fn locate(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &Hat) -> Vec<Window> {
     let mut out = Vec::new();
@@ -1044,7 +1058,11 @@ fn locate(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &Hat) -> V
             let mean = r.iter().sum::<f64>() / n;
             let var = r.iter().map(|e| (e - mean).powi(2)).sum::<f64>().max(1e-300);
             let ac1 = r.windows(2).map(|p| (p[0] - mean) * (p[1] - mean)).sum::<f64>() / var;
-            let ratio = rms / tr.sigma.max(1e-12);
+            // against the noise where it is: a resistance read without its divider is far noisier
+            // loaded than unloaded, so the recording's one noise figure would call the loaded
+            // steps' own noise a misfit. The local figure is the robust spread of the residual's
+            // sample-to-sample differences, which a slow misfit hardly touches.
+            let ratio = rms / tr.sigma.max(local_noise(&r)).max(1e-12);
             if ratio > 1.5 && ac1 > 0.5 {
                 out.push(Window { recording: tr.name.clone(), start_s: w[0], end_s: w[1], statistic: format!("residual RMS {ratio:.2} × noise, lag-1 autocorrelation {ac1:.2}") });
             }
@@ -1681,6 +1699,25 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn local_noise_is_the_white_part_of_a_residual_not_its_slow_misfit() {
+        // white noise of sigma 2 (a fixed pseudo-random sequence) on a slow ramp of 40 over the segment
+        let mut seed = 12345u64;
+        let mut gauss = || {
+            let mut u = || {
+                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos()
+        };
+        let r: Vec<f64> = (0..4000).map(|i| 40.0 * i as f64 / 4000.0 + 2.0 * gauss()).collect();
+        let s = super::local_noise(&r);
+        assert!((s - 2.0).abs() < 0.15, "{s}");
+        // the ramp alone is no noise
+        let ramp: Vec<f64> = (0..4000).map(|i| 40.0 * i as f64 / 4000.0).collect();
+        assert!(super::local_noise(&ramp) < 1e-9);
+    }
     use super::*;
 
     /// The Gauss–Newton columns are the derivatives of the model they correct: the filtered
