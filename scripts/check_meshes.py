@@ -557,7 +557,15 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
         r = o["radius_mm"] + (zt - zp + 2) * math.tan(math.radians(45)) + 0.2 if "from_z_mm" not in o else o["radius_mm"] + 0.2
         c = m3.Manifold.cylinder(zt - z0 + 3, r, r, 48).translate([o["xy"][0], o["xy"][1], z0])
         plugs = c if plugs is None else plugs + c
-    sealed = regions(box - (pieces + plugs))
+    # the key holes' clearances are closed pockets, not the cavity (they touch it only along the
+    # parting plane, where the pieces meet): filled, as the build's own check does
+    keys = None
+    for kh in mold.get("key_holes", []):
+        t = kh["top"]
+        c = m3.Manifold.cylinder(kh["depth_mm"], kh["r_bottom_mm"], kh["r_top_mm"], 48).translate([t[0], t[1], t[2] - kh["depth_mm"]])
+        keys = c if keys is None else keys + c
+    filled = pieces + plugs if keys is None else pieces + plugs + keys
+    sealed = regions(box - filled)
     cav_sealed = [r for r in sealed if (r ^ cavity).volume() > 0.5 * cavity.volume()]
     enclosed = cav_sealed[0].volume() if len(cav_sealed) == 1 else float("nan")
     # air at the mold's outer faces (within 0.05 mm) means a leak; zero-volume films along the faces

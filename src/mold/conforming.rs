@@ -33,6 +33,8 @@ pub struct Assembled {
     pub vents: Vec<([f64; 2], f64)>,
     /// The tops of the ceiling pockets that got a vent (mold frame, grown by the shrinkage).
     pub pocket_vents: Vec<P3>,
+    /// The key holes' clearance volumes (manifest: the checks fill them, as closed pockets).
+    pub key_holes: Vec<serde_json::Value>,
     /// Ceiling pockets a straight vent cannot reach (it would cross the cavity): they trap air.
     pub unvented_pockets: Vec<P3>,
     /// Key pins and their holes, in the assembled pose.
@@ -148,8 +150,10 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let (h, lift) = (m.key_height_mm, 0.5);
     let mut pins = Vec::new();
     let mut holes = Vec::new();
+    let mut key_holes = Vec::new();
     for kxy in corners.iter().take(m.key_count) {
         let top = [kxy[0], kxy[1], ze + lift];
+        key_holes.push(json!({"top": top, "depth_mm": lift + h + kc, "r_top_mm": kr + kc + lift * dtan, "r_bottom_mm": kr + kc - (h + kc) * dtan}));
         pins.push(Solid::cylinder(top, DOWN, lift + h, kr + lift * dtan, kr - h * dtan, segments(kr + kc, tol)));
         holes.push(Solid::cylinder(top, DOWN, lift + h + kc, kr + kc + lift * dtan, kr + kc - (h + kc) * dtan, segments(kr + kc, tol)));
     }
@@ -230,6 +234,7 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
         sprue: (sprue_xy, rs),
         vents: vent_xy.iter().map(|v| (*v, rv)).chain(pockets.iter().map(|q| ([q[0], q[1]], rv))).collect(),
         pocket_vents: pockets.clone(),
+        key_holes,
         unvented_pockets: unvented,
         pins,
         holes,
@@ -388,6 +393,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("parting_z_mm".into(), json!(a.z_parting));
     entry.insert("flange_top_z_mm".into(), json!(a.z_top));
     entry.insert("key_clearance_mm".into(), json!(p.mold.key_clearance_mm));
+    entry.insert("key_holes".into(), json!(a.key_holes));
     entry.insert("draft_deg".into(), json!(p.mold.draft_deg));
     let pocket_top = |xy: [f64; 2]| a.pocket_vents.iter().find(|q| q[0] == xy[0] && q[1] == xy[1]).map(|q| q[2]);
     entry.insert(
