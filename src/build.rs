@@ -91,6 +91,9 @@ fn files_to_build(opts: &Options, problems: &mut Vec<Problem>) -> Result<(Vec<Pa
         return Ok((files, false));
     }
     let mut files = Vec::new();
+    // the folder's stems, for "did you mean": listed once
+    let stems: Vec<String> = part_files(&opts.params_dir).unwrap_or_default().iter().filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(str::to_string)).collect();
+    let known: Vec<&str> = stems.iter().map(String::as_str).collect();
     for arg in &opts.only {
         if is_path(arg) {
             let path = PathBuf::from(arg);
@@ -106,12 +109,6 @@ fn files_to_build(opts: &Options, problems: &mut Vec<Problem>) -> Result<(Vec<Pa
             files.push(path);
             continue;
         }
-        let stems: Vec<String> = part_files(&opts.params_dir)
-            .unwrap_or_default()
-            .iter()
-            .filter_map(|p| p.file_stem().and_then(|s| s.to_str()).map(str::to_string))
-            .collect();
-        let known: Vec<&str> = stems.iter().map(String::as_str).collect();
         let hint = match params::nearest(arg, &known) {
             Some(s) => format!("did you mean `{s}`?"),
             None if known.is_empty() => format!("{} holds no .toml files", opts.params_dir.display()),

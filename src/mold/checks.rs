@@ -90,13 +90,7 @@ pub fn cover_over_domes(l: &Layout, a: &Assembled) -> Vec<Value> {
 /// Where air leaves the cavity: the sprue and rim vents from the parting plane up, a pocket vent from
 /// its pocket's top.
 pub fn exits(a: &Assembled) -> Vec<super::trapped_air::Exit> {
-    std::iter::once(a.sprue)
-        .chain(a.vents.iter().copied())
-        .map(|(xy, r)| {
-            let from_z = a.pocket_vents.iter().find(|q| q[0] == xy[0] && q[1] == xy[1]).map(|q| q[2]).unwrap_or(a.z_parting);
-            super::trapped_air::Exit { xy, r, from_z }
-        })
-        .collect()
+    std::iter::once(super::trapped_air::Exit { xy: a.sprue.0, r: a.sprue.1, from_z: a.z_parting }).chain(a.vents.iter().copied()).collect()
 }
 
 pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>, Value) {
@@ -135,11 +129,11 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
 
     // 3. the sprue and every vent open straight into the cavity: at the rim, or, for a vent from a
     // pocket in the ceiling, at the pocket's top
-    let pocket_top = |xy: [f64; 2]| a.pocket_vents.iter().find(|q| (q[0] - xy[0]).abs() < 1e-9 && (q[1] - xy[1]).abs() < 1e-9).map(|q| q[2]);
     let mut openings_ok = Vec::new();
-    for (what, (xy, _)) in std::iter::once(("sprue", a.sprue)).chain(a.vents.iter().map(|v| ("vent", *v))) {
+    for (what, o) in exits(a).iter().enumerate().map(|(i, o)| (if i == 0 { "sprue" } else { "vent" }, o)) {
+        let xy = o.xy;
         let top = [xy[0], xy[1], a.z_top + 1.0];
-        let bottom = [xy[0], xy[1], pocket_top(xy).map(|z| z - 0.1).unwrap_or(a.z_parting - 0.02)];
+        let bottom = [xy[0], xy[1], a.pocket_top(o).map(|z| z - 0.1).unwrap_or(a.z_parting - 0.02)];
         let clear = a.core.ray_hits(top, bottom).is_empty() && a.shell.ray_hits(top, bottom).is_empty();
         let into = a.cavity.contains(bottom, a.z_top + 2.0);
         openings_ok.push(clear && into);
@@ -167,9 +161,8 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     let mut plugs = Vec::new();
     let r_sprue = super::conforming::sprue_radius(m, w + 2.0) + 0.2;
     plugs.push(Solid::cylinder([a.sprue.0[0], a.sprue.0[1], a.z_parting], [0.0, 0.0, 1.0], w + 3.0, r_sprue, r_sprue, 48));
-    for (xy, r) in &a.vents {
-        let from = pocket_top(*xy).unwrap_or(a.z_parting);
-        plugs.push(Solid::cylinder([xy[0], xy[1], from], [0.0, 0.0, 1.0], a.z_top + 1.0 - from, r + 0.2, r + 0.2, 24));
+    for o in &a.vents {
+        plugs.push(Solid::cylinder([o.xy[0], o.xy[1], o.from_z], [0.0, 0.0, 1.0], a.z_top + 1.0 - o.from_z, o.r + 0.2, o.r + 0.2, 24));
     }
     // air "reaches" a face of the mold when it has volume within 0.05 mm of it; the kernel can leave
     // zero-volume films along the faces where the pieces touch, which connect nothing
@@ -381,6 +374,7 @@ fn hump_mm(shape: &Shape, t: f64, cover: &Solid, base: P3, normal: P3, radius: f
 /// a piece that cannot leave in their direction, and how many faces were checked.
 fn draft_check(a: &Assembled, _draft: f64) -> (f64, usize, usize) {
     let cav = a.cavity.to_mesh();
+    let openings = exits(a);
     let mut min_slope = 90.0f64;
     let mut wrong = 0;
     let mut n = 0;
@@ -400,9 +394,7 @@ fn draft_check(a: &Assembled, _draft: f64) -> (f64, usize, usize) {
         let (on_core, on_shell) = (on(&a.core), on(&a.shell));
         if !on_core && !on_shell {
             // where the sprue or a vent opens onto the cavity, the face looks into the opening's air
-            let in_opening = std::iter::once(a.sprue)
-                .chain(a.vents.iter().copied())
-                .any(|(xy, r)| ((c[0] - xy[0]).powi(2) + (c[1] - xy[1]).powi(2)).sqrt() < r + 0.05 + (a.z_top - a.z_parting));
+            let in_opening = openings.iter().any(|o| (c[0] - o.xy[0]).hypot(c[1] - o.xy[1]) < o.r + 0.05 + (a.z_top - a.z_parting));
             if !in_opening {
                 wrong += 1;
             }

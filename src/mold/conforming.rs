@@ -2,6 +2,7 @@
 //! registration pins, sprue and vents) and shell (the pad's exact offset, key holes), and the
 //! cover they cast.
 
+use super::trapped_air::Exit;
 use super::{checks, layout, material, notes, openings, Layout, MoldBuild};
 use crate::error::{Error, Result};
 use crate::fingertip;
@@ -30,9 +31,9 @@ pub struct Assembled {
     /// Top of the core's flange.
     pub z_top: f64,
     pub sprue: ([f64; 2], f64),
-    pub vents: Vec<([f64; 2], f64)>,
-    /// The tops of the ceiling pockets that got a vent (mold frame, grown by the shrinkage).
-    pub pocket_vents: Vec<P3>,
+    /// Every vent, open from `from_z` up: the parting plane for a vent over the rim, the pocket's
+    /// top for a vent drilled from a pocket in the cavity's ceiling.
+    pub vents: Vec<Exit>,
     /// The key holes' clearance volumes (manifest: the checks fill them, as closed pockets).
     pub key_holes: Vec<serde_json::Value>,
     /// Ceiling pockets a straight vent cannot reach (it would cross the cavity): they trap air.
@@ -168,7 +169,7 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     // a vent from every high point of the cavity's ceiling that is not the rim: the recessed flat
     // round a tilted seat is an upside-down pocket whose highest point traps air (issue 18, item 3)
     let grow_p = |q: P3| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1]), center[2] + k * (q[2] - center[2])];
-    let pockets: Vec<(P3, P3)> = flat_pocket_tops(p, &l).into_iter().map(|(q, c)| (grow_p(q), grow_p(c))).collect();
+    let pockets: Vec<P3> = flat_pocket_tops(p, &l).into_iter().map(grow_p).collect();
     // each pocket gets a vent straight up from its top, unless that would cross the cavity again or
     // cut a second hole (into the ridge between two flats, say): such a pocket is reported
     let flange = Solid::cuboid([x_lo_k, -half_y, ze], [x_hi, half_y, z_top]).difference(&Solid::union_all(&openings_cut).expect("sprue"));
@@ -177,34 +178,19 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let mut core = Solid::union_all(&core_parts).expect("core");
     let mut vented = Vec::new();
     let mut unvented = Vec::new();
-    for (q, c) in &pockets {
-        let inward = {
-            let d = [c[0] - q[0], c[1] - q[1]];
-            let len = d[0].hypot(d[1]).max(1e-12);
-            [d[0] / len, d[1] / len]
-        };
-        let mut done = false;
+    for q in &pockets {
         // only a vent at the very top lets the pocket's air out (one further in starts below it)
-        for step in [0.0] {
-            let at = [q[0] + inward[0] * step, q[1] + inward[1] * step];
-            let clear = [[0.0, 0.0], [rv, 0.0], [-rv, 0.0], [0.0, rv], [0.0, -rv]]
-                .iter()
-                .all(|o| cavity.ray_hits([at[0] + o[0], at[1] + o[1], q[2] + 0.05], [at[0] + o[0], at[1] + o[1], ze + 0.01]).is_empty());
-            if !clear {
-                continue;
-            }
-            let from = q[2] - 0.3 - step;
-            let vent = Solid::cylinder([at[0], at[1], from], UP, z_top + 1.0 - from, rv, rv, segments(rv, tol));
-            let cut = core.difference(&vent);
-            if cut.genus() == core.genus() + 1 && cut.bodies() == 1 {
+        let clear = [[0.0, 0.0], [rv, 0.0], [-rv, 0.0], [0.0, rv], [0.0, -rv]]
+            .iter()
+            .all(|o| cavity.ray_hits([q[0] + o[0], q[1] + o[1], q[2] + 0.05], [q[0] + o[0], q[1] + o[1], ze + 0.01]).is_empty());
+        let from = q[2] - 0.3;
+        let cut = clear.then(|| core.difference(&Solid::cylinder([q[0], q[1], from], UP, z_top + 1.0 - from, rv, rv, segments(rv, tol))));
+        match cut {
+            Some(cut) if cut.genus() == core.genus() + 1 && cut.bodies() == 1 => {
                 core = cut;
-                vented.push([at[0], at[1], q[2]]);
-                done = true;
-                break;
+                vented.push(*q);
             }
-        }
-        if !done {
-            unvented.push(*q);
+            _ => unvented.push(*q),
         }
     }
     let pockets = vented;
@@ -232,8 +218,11 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
         z_parting: ze,
         z_top,
         sprue: (sprue_xy, rs),
-        vents: vent_xy.iter().map(|v| (*v, rv)).chain(pockets.iter().map(|q| ([q[0], q[1]], rv))).collect(),
-        pocket_vents: pockets.clone(),
+        vents: vent_xy
+            .iter()
+            .map(|v| Exit { xy: *v, r: rv, from_z: ze })
+            .chain(pockets.iter().map(|q| Exit { xy: [q[0], q[1]], r: rv, from_z: q[2] }))
+            .collect(),
         key_holes,
         unvented_pockets: unvented,
         pins,
@@ -243,11 +232,11 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     Ok((l, a))
 }
 
-/// The highest point, in the pour orientation (+z of the mold frame), of every tilted recessed flat,
-/// with the flat's centre (nominal size, mold frame). The flat is cut into the core's plug, so seen from the cavity below
+/// The highest point, in the pour orientation (+z of the mold frame), of every tilted recessed flat
+/// (nominal size, mold frame). The flat is cut into the core's plug, so seen from the cavity below
 /// it is a pocket in the ceiling; a level flat has no single high point and needs no vent (air
 /// leaves it sideways, where the pad rises to the flanks).
-pub fn flat_pocket_tops(p: &MoldParams, l: &Layout) -> Vec<(P3, P3)> {
+pub fn flat_pocket_tops(p: &MoldParams, l: &Layout) -> Vec<P3> {
     let up = [0.0, 0.0, 1.0];
     let mut out = Vec::new();
     for (d, s) in l.domes.iter().zip(&p.fingertip.sensors) {
@@ -259,9 +248,20 @@ pub fn flat_pocket_tops(p: &MoldParams, l: &Layout) -> Vec<(P3, P3)> {
             continue;
         }
         let c = l.frame.to_mold(d.base);
-        out.push((crate::mesh::add(c, scale(along, s.flat_diameter_mm / 2.0 / len)), c));
+        out.push(crate::mesh::add(c, scale(along, s.flat_diameter_mm / 2.0 / len)));
     }
     out
+}
+
+impl Assembled {
+    /// The top of the ceiling pocket a vent was drilled from, if it was (not over the rim).
+    pub fn pocket_top(&self, v: &Exit) -> Option<f64> {
+        (v.from_z < self.z_parting).then_some(v.from_z)
+    }
+    /// The tops of the ceiling pockets that got a vent (mold frame, grown by the shrinkage).
+    pub fn pocket_vents(&self) -> Vec<P3> {
+        self.vents.iter().filter_map(|v| self.pocket_top(v).map(|z| [v.xy[0], v.xy[1], z])).collect()
+    }
 }
 
 pub fn build(p: &MoldParams) -> Result<MoldBuild> {
@@ -296,7 +296,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         extra: Default::default(),
     };
     // to_assembled: rows of a 3×4 matrix [R | t] mapping the print pose back to the assembly
-    let core = piece(core_print, "core", 1 + p.mold.vent_count as i32 + a.pocket_vents.len() as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
+    let core = piece(core_print, "core", 1 + a.vents.len() as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
     let shell = piece(shell_print, "shell", 0, json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]]));
     let domes: Vec<serde_json::Value> = l
         .domes
@@ -395,16 +395,14 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("key_clearance_mm".into(), json!(p.mold.key_clearance_mm));
     entry.insert("key_holes".into(), json!(a.key_holes));
     entry.insert("draft_deg".into(), json!(p.mold.draft_deg));
-    let pocket_top = |xy: [f64; 2]| a.pocket_vents.iter().find(|q| q[0] == xy[0] && q[1] == xy[1]).map(|q| q[2]);
     entry.insert(
         "openings".into(),
-        json!(std::iter::once(a.sprue)
-            .chain(a.vents.iter().copied())
-            .map(|(xy, r)| match pocket_top(xy) {
+        json!(std::iter::once(json!({"xy": a.sprue.0, "radius_mm": a.sprue.1}))
+            .chain(a.vents.iter().map(|v| match a.pocket_top(v) {
                 // a vent from a pocket in the cavity's ceiling starts at the pocket's top
-                Some(z) => json!({"xy": xy, "radius_mm": r, "from_z_mm": z, "why": "the top of the recessed flat round a tilted seat, a pocket in the ceiling that traps air"}),
-                None => json!({"xy": xy, "radius_mm": r}),
-            })
+                Some(z) => json!({"xy": v.xy, "radius_mm": v.r, "from_z_mm": z, "why": "the top of the recessed flat round a tilted seat, a pocket in the ceiling that traps air"}),
+                None => json!({"xy": v.xy, "radius_mm": v.r}),
+            }))
             .collect::<Vec<_>>()),
     );
     entry.insert("pour_up".into(), json!([0.0, 0.0, 1.0]));

@@ -101,30 +101,9 @@ pub fn named(c: &mut Collector, src: &SourceFile, dir: &Path) -> Result<Option<B
             return Ok(None);
         }
     };
-    let path = dir.join(&file);
-    let bsrc = match super::read_source(&path) {
-        Ok(s) => s,
-        Err(Error::Io { .. }) => {
-            c.push("sensor_board", &file, format!("cannot read {}: name a sensor board file in the same folder as this file", path.display()));
-            return Ok(None);
-        }
-        Err(Error::Input(p)) => {
-            c.problems.extend(p.0);
-            return Ok(None);
-        }
-        Err(e) => return Err(e),
+    let Some(bsrc) = super::read_named(c, "sensor_board", &file, dir, super::Kind::SensorBoard, "a sensor board file (kind = \"sensor_board\")")? else {
+        return Ok(None);
     };
-    match super::kind_of(&bsrc) {
-        Ok(super::Kind::SensorBoard) => {}
-        Ok(k) => {
-            c.push("sensor_board", &file, format!("{} is a {k:?} file, not a sensor board file (kind = \"sensor_board\")", path.display()));
-            return Ok(None);
-        }
-        Err(p) => {
-            c.problems.push(p);
-            return Ok(None);
-        }
-    }
     match Board::from_source(&bsrc) {
         Ok(b) => Ok(Some(b)),
         Err(Error::Input(p)) => {

@@ -96,31 +96,10 @@ fn read_finger(c: &mut Collector, src: &SourceFile, finger: &'static str, dir: &
         c.push(&format!("{finger}.fingertip"), "missing", "name the fingertip file, e.g. fingertip = \"fingertip-1s.toml\"");
         return Ok(None);
     };
-    let path = dir.join(file);
-    let fsrc = match super::read_source(&path) {
-        Ok(s) => s,
-        Err(Error::Io { .. }) => {
-            c.push(&format!("{finger}.fingertip"), file, format!("cannot read {}: name a fingertip file in the hand file's folder", path.display()));
-            return Ok(None);
-        }
-        Err(Error::Input(p)) => {
-            c.problems.extend(p.0);
-            return Ok(None);
-        }
-        Err(e) => return Err(e),
+    let Some(fsrc) = super::read_named(c, &format!("{finger}.fingertip"), file, dir, super::Kind::Fingertip, "a fingertip file")? else {
+        return Ok(None);
     };
-    match super::kind_of(&fsrc) {
-        Ok(super::Kind::Fingertip) => {}
-        Ok(k) => {
-            c.push(&format!("{finger}.fingertip"), file, format!("{} is a {k:?} file, not a fingertip file", path.display()));
-            return Ok(None);
-        }
-        Err(p) => {
-            c.problems.push(p);
-            return Ok(None);
-        }
-    }
-    let mut merged = fsrc.clone();
+    let mut merged = fsrc;
     let mut overridden = Vec::new();
     if let Some(set) = table.get("set") {
         match set.as_table() {

@@ -87,6 +87,36 @@ pub fn kind_of(src: &SourceFile) -> std::result::Result<Kind, Problem> {
     }
 }
 
+/// A parameter file another file names (a mold's `fingertip`, a part's `sensor_board`, a hand's
+/// digits), read from `dir`, the naming file's folder, and of the kind it must be (`what` names
+/// that kind for the messages: "a fingertip file"). Problems are added to `c` at `key`.
+pub fn read_named(c: &mut Collector, key: &str, file: &str, dir: &Path, want: Kind, what: &str) -> Result<Option<SourceFile>> {
+    let path = dir.join(file);
+    let src = match read_source(&path) {
+        Ok(s) => s,
+        Err(Error::Io { .. }) => {
+            c.push(key, file, format!("cannot read {}: name {what} in the same folder as this file", path.display()));
+            return Ok(None);
+        }
+        Err(Error::Input(p)) => {
+            c.problems.extend(p.0);
+            return Ok(None);
+        }
+        Err(e) => return Err(e),
+    };
+    match kind_of(&src) {
+        Ok(k) if k == want => Ok(Some(src)),
+        Ok(k) => {
+            c.push(key, file, format!("{} is a {k:?} file, not {what}", path.display()));
+            Ok(None)
+        }
+        Err(p) => {
+            c.problems.push(p);
+            Ok(None)
+        }
+    }
+}
+
 /// Turns collected problems into the error type, or passes the value on.
 pub fn finish<T>(value: Option<T>, problems: Vec<Problem>) -> Result<T> {
     crate::error::Gather(problems).finish(value)

@@ -176,41 +176,20 @@ impl MoldParams {
             }
         };
         let fingertip = match src.value.get("fingertip") {
-            Some(toml::Value::String(f)) => {
-                let path = dir.join(f);
-                match super::read_source(&path) {
-                    Ok(fsrc) => match super::kind_of(&fsrc) {
-                        Ok(super::Kind::Fingertip) => {
-                            let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("fingertip").to_string();
-                            match FingertipParams::from_source(&fsrc, &stem, dir) {
-                                Ok(p) => Some((f.clone(), p, fsrc.clone())),
-                                Err(Error::Input(p)) => {
-                                    c.problems.extend(p.0);
-                                    None
-                                }
-                                Err(e) => return Err(e),
-                            }
-                        }
-                        Ok(k) => {
-                            c.push("fingertip", f, format!("{} is a {k:?} file, not a fingertip file", path.display()));
+            Some(toml::Value::String(f)) => match super::read_named(&mut c, "fingertip", f, dir, super::Kind::Fingertip, "a fingertip file")? {
+                Some(fsrc) => {
+                    let stem = Path::new(f).file_stem().and_then(|s| s.to_str()).unwrap_or("fingertip").to_string();
+                    match FingertipParams::from_source(&fsrc, &stem, dir) {
+                        Ok(p) => Some((f.clone(), p, fsrc)),
+                        Err(Error::Input(p)) => {
+                            c.problems.extend(p.0);
                             None
                         }
-                        Err(p) => {
-                            c.problems.push(p);
-                            None
-                        }
-                    },
-                    Err(Error::Io { .. }) => {
-                        c.push("fingertip", f, format!("cannot read {}: name a fingertip file in the same folder as this mold file", path.display()));
-                        None
+                        Err(e) => return Err(e),
                     }
-                    Err(Error::Input(p)) => {
-                        c.problems.extend(p.0);
-                        None
-                    }
-                    Err(e) => return Err(e),
                 }
-            }
+                None => None,
+            },
             Some(v) => {
                 c.push("fingertip", v, "must be a file name string, e.g. fingertip = \"fingertip-1s.toml\"");
                 None
