@@ -20,6 +20,9 @@ use serde::Serialize;
 /// A term must improve held-out prediction with a paired z of at least this over units.
 pub const MIN_Z: f64 = 3.0;
 pub const MIN_DBIC: f64 = -10.0;
+/// The relaxation spectrum is preferred to an exact form (creep, one second time constant) that
+/// also passes only when its held-out RMSE is lower by more than this share.
+pub const SPECTRUM_MARGIN: f64 = 0.02;
 pub const SCHEMA: &str = "tipforge.diagnosis/1";
 /// The second time constant's candidates, in multiples of the steps' median τ (a geometric grid).
 const TAU2_STEP: f64 = 1.371;
@@ -39,6 +42,8 @@ struct Seg {
     prev: f64,
     tau: f64,
     phase: Phase,
+    /// When the change was logged (the load's ramp is placed relative to it).
+    t_log: f64,
     /// With a simulator baseline: the simulated step (ΔV, τ).
     sim: Option<(f64, f64)>,
 }
@@ -89,6 +94,20 @@ struct Config {
     /// clip on a first-order fall from the clip itself (their part-1 fits are of that fall), so they
     /// restart at the clip: v = L_next·u + clip·(1 − u).
     restart: Vec<(usize, usize)>,
+    /// With the relaxation spectrum: its grid, the load's ramp and the smoothness penalty.
+    relax: Option<Relax>,
+}
+
+/// The relaxation spectrum's shape: kernels on a log grid of τ, driven by the load as applied (a
+/// ramp of `ramp_s` ending `end_s` after the logged change), amplitudes penalised by `lambda`
+/// (relative to the block's mean column energy; None: chosen by inner cross-validation wherever
+/// the model is solved).
+#[derive(Debug, Clone, PartialEq)]
+struct Relax {
+    taus: Vec<f64>,
+    ramp_s: f64,
+    end_s: f64,
+    lambda: Option<f64>,
 }
 
 /// A step whose time constant and onset are set, not taken from its own part-1 fit.
@@ -229,6 +248,11 @@ impl Design {
                 Effect::Hysteresis => out[col] = cur.map(|s| catalogue::hysteresis::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, &active, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
                 Effect::BaselineDrift => out[col] = catalogue::baseline_drift::column(t, tr.t[0]),
+                Effect::Relaxation => {
+                    if let Some(rx) = &cfg.relax {
+                        relax_columns(tr, &steps, t, rx, &mut out[col..col + 2 * rx.taus.len()]);
+                    }
+                }
                 Effect::Saturation | Effect::HandlingSpikes => {}
             }
             col += effect_cols(*e, cfg);
@@ -333,11 +357,76 @@ impl Steps for TrialSteps<'_> {
     }
 }
 
+/// The relaxation spectrum's columns: every change of the trial drives the kernels of its kind
+/// (loading: the first half, unloading: the second) by its change of level.
+fn relax_columns(tr: &Trial, steps: &TrialSteps, t: f64, rx: &Relax, out: &mut [f64]) {
+    let k = rx.taus.len();
+    for (q, sg) in tr.segs.iter().enumerate() {
+        let end = sg.t_log + rx.end_s;
+        if t <= end - rx.ramp_s {
+            break;
+        }
+        let dv = steps.dv(q);
+        let set = if steps.unloading(q) { k } else { 0 };
+        for (j, &tau) in rx.taus.iter().enumerate() {
+            out[set + j] += dv * catalogue::relaxation::kernel(t, end, rx.ramp_s, tau);
+        }
+    }
+}
+
+/// A relaxation spectrum's finding named by its fitted shape (its term's amplitudes): a broad
+/// band is creep, one narrow peak a second time constant, one sign of response after loading and
+/// unloading a change-driven second relaxation.
+fn name_spectrum(f: &mut Finding) {
+    use catalogue::relaxation::Shape;
+    let arr = |k: &str| -> Vec<f64> { f.term.params[k].as_array().map(|a| a.iter().filter_map(|v| v.as_f64()).collect()).unwrap_or_default() };
+    let taus = arr("tau_s");
+    let mut amps = arr("after_loading_per_unit_change");
+    amps.extend(arr("after_unloading_per_unit_change"));
+    if taus.is_empty() || amps.len() != 2 * taus.len() {
+        return;
+    }
+    let (effect, why) = match catalogue::relaxation::name(&taus, &amps) {
+        Shape::Creep => (Effect::Creep, catalogue::relaxation::EXPLANATION.to_string()),
+        Shape::SecondTimeConstant => {
+            let (tau, _) = catalogue::relaxation::peak(&taus, &amps[..taus.len()]);
+            (Effect::SecondTimeConstant, format!("{} — the relaxation spectrum fitted over every load change has one narrow peak, at τ ≈ {} s", catalogue::second_time_constant::EXPLANATION, catalogue::sig3(tau)))
+        }
+        Shape::ChangeDriven => (Effect::SecondTimeConstant, format!("{} — from the relaxation spectrum fitted over every load change", catalogue::second_time_constant::EXPLANATION_SIZE)),
+    };
+    f.effect = effect.name();
+    f.explanation = why;
+    f.term.name = "relaxation_spectrum".into();
+}
+
+/// The relaxation spectrum's candidate shapes: its τ grid from the samples' spacing (or the
+/// filtered sample's span) to half the longest trial, and the load's ramps: an actuator's of
+/// 0–8 s ending within a second of the logged change, a hand's of up to 0.6 s around it.
+fn relax_candidates(trials: &[Trial], actuator: bool) -> Vec<Relax> {
+    let mut dts: Vec<f64> = trials.iter().flat_map(|tr| tr.t.windows(2).map(|w| w[1] - w[0])).filter(|d| *d > 0.0).collect();
+    let dt = if dts.is_empty() { 0.01 } else { super::preprocess::median(&mut dts) };
+    let half = trials.iter().map(|tr| tr.half_span_s).fold(0.0, f64::max);
+    let span = trials.iter().map(|tr| tr.t.last().copied().unwrap_or(0.0) - tr.t.first().copied().unwrap_or(0.0)).fold(0.0, f64::max);
+    let taus = catalogue::relaxation::grid((2.0 * dt).max(2.0 * half).max(0.1), 0.5 * span);
+    let (ramps, ends): (&[f64], &[f64]) = if actuator { (&[0.0, 2.0, 4.0, 6.0, 8.0], &[-1.0, 0.0, 1.0]) } else { (&[0.0, 0.3, 0.6], &[-0.3, 0.0, 0.3]) };
+    ramps.iter().flat_map(|&ramp_s| ends.iter().map(move |&end_s| (ramp_s, end_s))).map(|(ramp_s, end_s)| Relax { taus: taus.clone(), ramp_s, end_s, lambda: None }).collect()
+}
+
+/// Leave-one-unit-out error of a configuration on all the data, its relaxation penalty chosen
+/// by the same cross-validation.
+fn relax_cv(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<f64> {
+    let units = unit_normals(d, trials, &all_rows(trials), cfg, hat);
+    let parts: Vec<&Normal> = units.values().collect();
+    let (_, cv) = lambda_cv(d, cfg, &parts, None);
+    cv.is_finite().then_some(cv)
+}
+
 /// Design columns of a catalogue term.
 fn effect_cols(e: Effect, cfg: &Config) -> usize {
     match e {
         Effect::Saturation | Effect::HandlingSpikes => 0,
         Effect::SecondTimeConstant => cfg.drive.columns(),
+        Effect::Relaxation => cfg.relax.as_ref().map(|r| 2 * r.taus.len()).unwrap_or(0),
         _ => 1,
     }
 }
@@ -377,12 +466,43 @@ fn solve(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, ha
 /// onset shift or term columns, whatever the penalty would leave otherwise).
 const MIN_FOLD_SUPPORT: f64 = 1e-3;
 
-/// [`solve`], also returning the normal matrix's diagonal (each column's energy on `rows`); with
-/// `support` (that diagonal on all the data), columns under MIN_FOLD_SUPPORT of it are left at 0.
-fn solve_with(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, hat: &Hat, support: Option<&[f64]>) -> Option<(Vec<f64>, Vec<f64>)> {
+/// The normal equations of a set of rows: AᵀA (upper triangle), Aᵀy and yᵀy.
+#[derive(Clone)]
+struct Normal {
+    ata: DMatrix<f64>,
+    aty: DVector<f64>,
+    yy: f64,
+}
+
+impl Normal {
+    fn zeros(p: usize) -> Self {
+        Normal { ata: DMatrix::zeros(p, p), aty: DVector::zeros(p), yy: 0.0 }
+    }
+    fn add(&mut self, o: &Normal) {
+        self.ata += &o.ata;
+        self.aty += &o.aty;
+        self.yy += o.yy;
+    }
+    fn sub(&self, o: &Normal) -> Normal {
+        Normal { ata: &self.ata - &o.ata, aty: &self.aty - &o.aty, yy: self.yy - o.yy }
+    }
+    /// The squared error of coefficients x on these rows (no clip).
+    fn sse(&self, x: &[f64]) -> f64 {
+        let p = x.len();
+        let mut q = 0.0;
+        for a in 0..p {
+            q += self.ata[(a, a)] * x[a] * x[a];
+            for b in a + 1..p {
+                q += 2.0 * self.ata[(a, b)] * x[a] * x[b];
+            }
+        }
+        self.yy - 2.0 * x.iter().zip(self.aty.iter()).map(|(u, v)| u * v).sum::<f64>() + q
+    }
+}
+
+/// Adds the usable rows to the normal equations.
+fn accumulate(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, hat: &Hat, n: &mut Normal) {
     let p = d.ncols(cfg);
-    let mut ata = DMatrix::<f64>::zeros(p, p);
-    let mut aty = DVector::<f64>::zeros(p);
     let mut r = Vec::new();
     let mut nz: Vec<usize> = Vec::with_capacity(p);
     for &(i, j) in rows {
@@ -392,17 +512,105 @@ fn solve_with(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Confi
         }
         d.row(i, tr, tr.t[j], cfg, hat, &mut r);
         // rows are sparse (a step's shape columns are zero before it): the upper triangle over the
-        // row's nonzero columns, mirrored below
+        // row's nonzero columns
         nz.clear();
         nz.extend((0..p).filter(|&a| r[a] != 0.0));
         let y = tr.v[j] - tr.prior(tr.t[j]) - clip_offset(i, tr, tr.t[j], cfg);
+        n.yy += y * y;
         for (ai, &a) in nz.iter().enumerate() {
-            aty[a] += r[a] * y;
+            n.aty[a] += r[a] * y;
             for &b in &nz[ai..] {
-                ata[(a, b)] += r[a] * r[b];
+                n.ata[(a, b)] += r[a] * r[b];
             }
         }
     }
+}
+
+/// The normal equations per unit (trial, segment counted from 1 at the first onset; rows before
+/// the first step are segment 0), the units the held-out folds leave out.
+fn unit_normals(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, hat: &Hat) -> std::collections::BTreeMap<(usize, usize), Normal> {
+    let mut by: std::collections::BTreeMap<(usize, usize), Vec<(usize, usize)>> = Default::default();
+    for &(i, j) in rows {
+        let tr = &trials[i];
+        by.entry((i, tr.segs.iter().filter(|s| s.t0 <= tr.t[j]).count())).or_default().push((i, j));
+    }
+    let p = d.ncols(cfg);
+    by.into_iter()
+        .map(|(k, rs)| {
+            let mut n = Normal::zeros(p);
+            accumulate(d, trials, &rs, cfg, hat, &mut n);
+            (k, n)
+        })
+        .collect()
+}
+
+/// [`solve`], also returning the normal matrix's diagonal (each column's energy on `rows`); with
+/// `support` (that diagonal on all the data), columns under MIN_FOLD_SUPPORT of it are left at 0.
+/// A relaxation spectrum without its penalty gets it by inner cross-validation on these rows.
+fn solve_with(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Config, hat: &Hat, support: Option<&[f64]>) -> Option<(Vec<f64>, Vec<f64>)> {
+    if cfg.relax.as_ref().is_some_and(|r| r.lambda.is_none()) {
+        let units = unit_normals(d, trials, rows, cfg, hat);
+        let parts: Vec<&Normal> = units.values().collect();
+        let lambda = choose_lambda(d, cfg, &parts, support);
+        return solve_normal(d, cfg, &sum_normals(d, cfg, &parts), support, lambda);
+    }
+    let mut n = Normal::zeros(d.ncols(cfg));
+    accumulate(d, trials, rows, cfg, hat, &mut n);
+    solve_normal(d, cfg, &n, support, cfg.relax.as_ref().and_then(|r| r.lambda).unwrap_or(0.0))
+}
+
+fn sum_normals(d: &Design, cfg: &Config, parts: &[&Normal]) -> Normal {
+    let mut n = Normal::zeros(d.ncols(cfg));
+    for p in parts {
+        n.add(p);
+    }
+    n
+}
+
+/// The relaxation penalties tried by inner cross-validation (relative to the spectrum's mean
+/// column energy).
+const LAMBDAS: [f64; 8] = [1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0];
+
+/// The relaxation penalty with the least leave-one-unit-out error over `parts` (each part's
+/// error from the fit to all the others).
+fn choose_lambda(d: &Design, cfg: &Config, parts: &[&Normal], support: Option<&[f64]>) -> f64 {
+    lambda_cv(d, cfg, parts, support).0
+}
+
+/// [`choose_lambda`] with its cross-validated error.
+fn lambda_cv(d: &Design, cfg: &Config, parts: &[&Normal], support: Option<&[f64]>) -> (f64, f64) {
+    if parts.len() < 3 {
+        return (LAMBDAS[LAMBDAS.len() / 2], f64::INFINITY);
+    }
+    let total = sum_normals(d, cfg, parts);
+    // a column the inner folds' data hardly hold (the left-out step's own shape) is left at zero
+    let own: Vec<f64> = (0..total.aty.len()).map(|a| total.ata[(a, a)]).collect();
+    let support = Some(support.unwrap_or(&own));
+    let mut best = (f64::INFINITY, LAMBDAS[LAMBDAS.len() / 2]);
+    for &lambda in &LAMBDAS {
+        let mut cv = 0.0;
+        for m in parts {
+            match solve_normal(d, cfg, &total.sub(m), support, lambda) {
+                Some((x, _)) => cv += m.sse(&x),
+                None => {
+                    cv = f64::INFINITY;
+                    break;
+                }
+            }
+        }
+        if cv < best.0 {
+            best = (cv, lambda);
+        }
+    }
+    (best.1, best.0)
+}
+
+/// Solves normal equations (upper triangle given), with the relaxation spectrum's smoothness
+/// penalty at `lambda`.
+fn solve_normal(d: &Design, cfg: &Config, n: &Normal, support: Option<&[f64]>, lambda: f64) -> Option<(Vec<f64>, Vec<f64>)> {
+    let p = d.ncols(cfg);
+    let mut ata = n.ata.clone();
+    let mut aty = n.aty.clone();
     for a in 0..p {
         for b in 0..a {
             ata[(a, b)] = ata[(b, a)];
@@ -421,6 +629,20 @@ fn solve_with(d: &Design, trials: &[Trial], rows: &[(usize, usize)], cfg: &Confi
         }
     }
     let empty: Vec<bool> = (0..p).map(|a| ata[(a, a)] == 0.0).collect();
+    if let (Some(rx), true) = (&cfg.relax, cfg.effects.contains(&Effect::Relaxation)) {
+        let k = rx.taus.len();
+        let c0 = term_col(d, cfg, Effect::Relaxation);
+        let scale = (c0..c0 + 2 * k).map(|a| ata[(a, a)]).sum::<f64>() / (2 * k) as f64;
+        let pen = catalogue::relaxation::smoothness(k, 2);
+        for a in 0..2 * k {
+            for b in 0..2 * k {
+                ata[(c0 + a, c0 + b)] += lambda * scale * pen[a * 2 * k + b];
+            }
+            // a faint ridge keeps the spectrum determined where the data and the smoothness leave
+            // it free (a kernel set with no change of its kind)
+            ata[(c0 + a, c0 + a)] += 1e-6 * scale.max(1e-300);
+        }
+    }
     // tiny ridge keeps columns without data (a load absent from a fold) solvable at zero
     for a in 0..p {
         ata[(a, a)] += 1e-12 * (1.0 + ata[(a, a)]);
@@ -496,6 +718,24 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
         Effect::BaselineDrift => serde_json::json!({"rate_per_s": at(k)}),
         Effect::Saturation => serde_json::json!({"level": c.clip}),
         Effect::HandlingSpikes => serde_json::json!({}),
+        Effect::Relaxation => {
+            let Some(rx) = &c.relax else { return serde_json::json!({}) };
+            let n = rx.taus.len();
+            let amps: Vec<f64> = (0..2 * n).map(|j| at(k + j)).collect();
+            let shape = catalogue::relaxation::name(&rx.taus, &amps);
+            let (peak_l, share_l) = catalogue::relaxation::peak(&rx.taus, &amps[..n]);
+            let (peak_u, share_u) = catalogue::relaxation::peak(&rx.taus, &amps[n..]);
+            serde_json::json!({
+                "shape": match shape { catalogue::relaxation::Shape::Creep => "broad band (creep)", catalogue::relaxation::Shape::SecondTimeConstant => "one narrow peak (second time constant)", catalogue::relaxation::Shape::ChangeDriven => "one sign after loading and unloading (change-driven)" },
+                "tau_s": rx.taus,
+                "after_loading_per_unit_change": &amps[..n],
+                "after_unloading_per_unit_change": &amps[n..],
+                "peak_tau_after_loading_s": peak_l, "peak_share_after_loading": share_l,
+                "peak_tau_after_unloading_s": peak_u, "peak_share_after_unloading": share_u,
+                "ramp_s": rx.ramp_s, "ramp_end_after_logged_change_s": rx.end_s,
+                "penalty": rx.lambda,
+            })
+        }
     }
 }
 
@@ -595,7 +835,18 @@ fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score
 fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score, Vec<f64>)> {
     let rows = all_rows(trials);
     let fit_rows = all_rows(fit);
-    let (x, full_diag) = solve_with(d, fit, &fit_rows, cfg, hat, None)?;
+    // the normal equations per unit, once: every fold is a sum of them (and the relaxation
+    // spectrum's penalty is chosen within each fold, by leaving out one of its units at a time)
+    let units_n = unit_normals(d, fit, &fit_rows, cfg, hat);
+    let fold = |keep: &dyn Fn(&(usize, usize)) -> bool, support: Option<&[f64]>| -> Option<(Vec<f64>, Vec<f64>)> {
+        let parts: Vec<&Normal> = units_n.iter().filter(|(k, _)| keep(k)).map(|(_, n)| n).collect();
+        let lambda = match &cfg.relax {
+            Some(r) => r.lambda.unwrap_or_else(|| choose_lambda(d, cfg, &parts, support)),
+            None => 0.0,
+        };
+        solve_normal(d, cfg, &sum_normals(d, cfg, &parts), support, lambda)
+    };
+    let (x, full_diag) = fold(&|_| true, None)?;
     let mut buf = Vec::new();
     let (mut rss, mut n) = (0.0, 0usize);
     for &(i, j) in &rows {
@@ -610,8 +861,7 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
     let seg_of = |tr: &Trial, t: f64| tr.segs.iter().filter(|s| s.t0 <= t).count();
     if trials.len() >= 2 {
         for k in 0..trials.len() {
-            let train: Vec<(usize, usize)> = fit_rows.iter().copied().filter(|r| r.0 != k).collect();
-            let Some(mut xk) = solve(d, fit, &train, cfg, hat) else { continue };
+            let Some((mut xk, _)) = fold(&|u| u.0 != k, None) else { continue };
             // the held-out trial's own offset, from its samples before the first step
             let tr = &trials[k];
             let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
@@ -632,8 +882,8 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
         let tr = &trials[0];
         for s in 0..tr.segs.len() {
             let (a, b) = (tr.segs[s].t0, tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY));
-            let train: Vec<(usize, usize)> = fit_rows.iter().copied().filter(|r| !(fit[0].t[r.1] >= a && fit[0].t[r.1] < b)).collect();
-            let Some((mut xk, _)) = solve_with(d, fit, &train, cfg, hat, Some(&full_diag)) else { continue };
+            // the step's rows are unit s + 1 (segments count from the first onset)
+            let Some((mut xk, _)) = fold(&|u| *u != (0, s + 1), Some(&full_diag)) else { continue };
             // the held-out step's own time-constant correction has (almost) no training data:
             // predict it with the step's fitted τ
             if cfg.tau_free && !d.prior {
@@ -815,7 +1065,7 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Opti
             let Some(f) = fit else { continue };
             let t0 = f.trials.iter().find(|tp| tp.recording == rec.source).map(|tp| tp.t0).unwrap_or(st.t_log);
             let key = report.steps.iter().position(|s| s.phase == st.phase && s.index == st.index).unwrap_or(0);
-            segs.push(Seg { key, t0, load: st.after, prev: st.before, tau: f.tau_s, phase: st.phase, sim: None });
+            segs.push(Seg { key, t0, load: st.after, prev: st.before, tau: f.tau_s, phase: st.phase, t_log: st.t_log, sim: None });
         }
         let keep: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j]).collect();
         out.push(Trial {
@@ -1003,6 +1253,11 @@ fn signature(e: Effect, holds: &[HoldData], trials: &[Trial], clip: Option<f64>,
         Effect::Creep => catalogue::creep::signature(&views),
         Effect::Hysteresis => catalogue::hysteresis::signature(&views),
         Effect::SecondTimeConstant => catalogue::second_time_constant::signature(&views),
+        Effect::Relaxation => {
+            let mut w = catalogue::creep::signature(&views);
+            w.extend(catalogue::second_time_constant::signature(&views));
+            w
+        }
         Effect::BaselineDrift => catalogue::baseline_drift::signature(&views),
         Effect::Saturation => match clip {
             Some(level) => trials.iter().flat_map(|tr| catalogue::saturation::signature(&tr.name, &tr.t, &tr.v, level, tr.sigma)).collect(),
@@ -1322,7 +1577,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             Hat { loads: loads.clone(), level }
         }
         None => {
-            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![] };
+            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None };
             let rows = all_rows(&trials);
             let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
             let mut level = vec![0.0];
@@ -1332,7 +1587,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     };
     let hat0 = hat.clone();
     // the baseline: first-order steps with their levels and time constants refitted jointly
-    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![] };
+    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None };
     // fitted to the series as given (with the steps fitted to it), scored on the series without
     // the spikes (with the same steps); the diagnosis works on the latter, and the spikes are
     // reported and excluded below
@@ -1374,6 +1629,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         Some(c) => clipped_segments(&trials, c),
         None => ClipSteps { into: vec![], from: vec![], units: vec![] },
     };
+    let actuator = !opts.pre.handling || recs.iter().any(|r| r.meta.all.get("loading").is_some_and(|l| l.trim() == "actuator"));
     let med_tau = {
         let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
         super::preprocess::median(&mut t)
@@ -1384,8 +1640,14 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     let mut decisions = Vec::new();
     for round in 0..CATALOGUE.len() {
         let mut best: Option<(Effect, Config, Score, Vec<f64>)> = None;
+        let mut spectrum: Option<(Effect, Config, Score, Vec<f64>)> = None;
         for &e in &CATALOGUE {
             if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) {
+                continue;
+            }
+            // the spectrum holds creep and a second relaxation alike: it stands instead of them
+            let relaxing = |x: &Effect| matches!(x, Effect::Creep | Effect::SecondTimeConstant | Effect::Relaxation);
+            if relaxing(&e) && cur.effects.iter().any(|x| relaxing(x) && (*x == Effect::Relaxation || e == Effect::Relaxation)) {
                 continue;
             }
             let cands: Vec<Config> = match e {
@@ -1397,6 +1659,15 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                         c.effects.push(e);
                         c.tau2 = m * med_tau;
                         c.drive = drive;
+                        c
+                    })
+                    .collect(),
+                Effect::Relaxation => relax_candidates(&trials, actuator)
+                    .into_iter()
+                    .map(|rx| {
+                        let mut c = cur.clone();
+                        c.effects.push(e);
+                        c.relax = Some(rx);
                         c
                     })
                     .collect(),
@@ -1417,6 +1688,15 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             // shape parameters are chosen on the training fit (not on held-out data)
             let mut pick: Option<(Config, f64)> = None;
             for c in cands {
+                // the spectrum's load ramp is chosen by inner cross-validation, as its penalty
+                if e == Effect::Relaxation {
+                    if let Some(cv) = relax_cv(&d, &trials, &c, &hat) {
+                        if pick.as_ref().is_none_or(|p| cv < p.1) {
+                            pick = Some((c, cv));
+                        }
+                    }
+                    continue;
+                }
                 if let Some((b, xc)) = train_bic(&d, &trials, &c, &hat) {
                     // a response to the size of the change has one sign after loading and
                     // unloading alike; opposite signs are the change's own (signed) relaxation
@@ -1461,8 +1741,19 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             // a clip can only change the units that reach it: its evidence is tested there
             let z = if e == Effect::Saturation { paired_z_on(&cur_score, &s, &clip_steps.units) } else { paired_z(&cur_score.units, &s.units) };
             decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
-            if gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
+            let passes = gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC;
+            if passes && e == Effect::Relaxation {
+                spectrum = Some((e, c, s, x));
+            } else if passes && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
                 best = Some((e, c, s, x));
+            }
+        }
+        // the spectrum is the general form of creep and a second relaxation: it enters when it
+        // predicts held-out data clearly better than the best of the exact forms (which BIC ranks),
+        // else the exact form does (fewer amplitudes to estimate from the same data)
+        if let Some(sp) = spectrum {
+            if best.as_ref().is_none_or(|b| sp.2.heldout_rmse < (1.0 - SPECTRUM_MARGIN) * b.2.heldout_rmse) {
+                best = Some(sp);
             }
         }
         let Some((e, c, s, x)) = best else { break };
@@ -1674,6 +1965,14 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         let windows = findings.iter().flat_map(|f| f.windows.iter()).filter(|w| w.recording == rec.source).map(|w| (w.start_s, w.end_s)).collect();
         predictions.push(Prediction { stem: rec.stem(), time_s, measured, baseline, improved, windows, stride });
     }
+    // the spectrum's finding takes the name its fitted shape gives
+    let mut final_names: Vec<&'static str> = cur.effects.iter().map(|e| e.name()).collect();
+    for f in findings.iter_mut().filter(|f| f.effect == Effect::Relaxation.name()) {
+        name_spectrum(f);
+        for n in final_names.iter_mut().filter(|n| **n == Effect::Relaxation.name()) {
+            *n = f.effect;
+        }
+    }
     Some(Outcome::Done(Box::new(Diagnosis {
         schema: SCHEMA,
         recordings: recs.iter().map(|r| r.source.clone()).collect(),
@@ -1688,7 +1987,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             heldout_rmse: base.heldout_rmse,
             bic: base.bic,
         },
-        final_: Final { effects: cur.effects.iter().map(|e| e.name()).collect(), rmse: cur_score.rmse, heldout_rmse: cur_score.heldout_rmse },
+        final_: Final { effects: final_names, rmse: cur_score.rmse, heldout_rmse: cur_score.heldout_rmse },
         findings,
         unexplained,
         decisions,

@@ -10,6 +10,7 @@ pub mod baseline_drift;
 pub mod creep;
 pub mod handling_spikes;
 pub mod hysteresis;
+pub mod relaxation;
 pub mod saturation;
 pub mod second_time_constant;
 
@@ -24,10 +25,13 @@ pub enum Effect {
     BaselineDrift,
     Saturation,
     HandlingSpikes,
+    /// A relaxation spectrum over every load change: reported as creep or a second time
+    /// constant, whichever its fitted shape is ([`relaxation::name`]).
+    Relaxation,
 }
 
 /// The effects with a model term, in the order the forward selection tries them.
-pub const MODELLED: [Effect; 5] = [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation];
+pub const MODELLED: [Effect; 6] = [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation, Effect::Relaxation];
 
 impl Effect {
     pub fn name(self) -> &'static str {
@@ -38,6 +42,7 @@ impl Effect {
             Effect::BaselineDrift => "baseline_drift",
             Effect::Saturation => "saturation",
             Effect::HandlingSpikes => "handling_spikes",
+            Effect::Relaxation => "relaxation",
         }
     }
     pub fn explanation(self) -> &'static str {
@@ -48,6 +53,7 @@ impl Effect {
             Effect::BaselineDrift => baseline_drift::EXPLANATION,
             Effect::Saturation => saturation::EXPLANATION,
             Effect::HandlingSpikes => handling_spikes::EXPLANATION,
+            Effect::Relaxation => relaxation::EXPLANATION,
         }
     }
 }
