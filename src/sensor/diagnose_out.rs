@@ -59,7 +59,8 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
     }
     let effects = if d.final_.effects.is_empty() { "the baseline alone".to_string() } else { format!("baseline + {}", d.final_.effects.join(" + ")) };
     let change = if d.baseline.heldout_rmse > 0.0 { format!(" ({:+.1} %)", 100.0 * (d.final_.heldout_rmse / d.baseline.heldout_rmse - 1.0)) } else { String::new() };
-    out.push(format!("improved model: {effects}; held-out RMSE {} → {} {u}{change}", sig4(d.baseline.heldout_rmse), sig4(d.final_.heldout_rmse)));
+    let units = if d.final_.effects.is_empty() { String::new() } else { format!(", better on {} of {} held-out units", d.final_.units_better, d.final_.units_scored) };
+    out.push(format!("improved model: {effects}; held-out RMSE {} → {} {u}{change}{units}", sig4(d.baseline.heldout_rmse), sig4(d.final_.heldout_rmse)));
     out
 }
 
