@@ -21,8 +21,11 @@ use serde::Serialize;
 pub const MIN_Z: f64 = 3.0;
 pub const MIN_DBIC: f64 = -10.0;
 /// The relaxation spectrum is preferred to an exact form (creep, one second time constant) that
-/// also passes only when its held-out RMSE is lower by more than this share.
-pub const SPECTRUM_MARGIN: f64 = 0.02;
+/// also passes only when its held-out RMSE (both with their first-order shape refitted) is lower
+/// by more than this share. Set on family A: a 5 % second relaxation (seed 70 000) came out 4.7 %
+/// better held out with the spectrum, yet 2.8 × the floor's error to the truth; the exact form
+/// reaches the floor. On the shared recording the spectrum is 38 % better.
+pub const SPECTRUM_MARGIN: f64 = 0.10;
 pub const SCHEMA: &str = "tipforge.diagnosis/1";
 /// The second time constant's candidates, in multiples of the steps' median τ (a geometric grid).
 const TAU2_STEP: f64 = 1.371;
@@ -430,6 +433,12 @@ fn name_spectrum(f: &mut Finding, exact: Option<&Exact>) {
             if x.effect == Effect::SecondTimeConstant { format!(", τ2 ≈ {} s", catalogue::sig3(x.tau2_s)) } else { String::new() }
         );
         f.term.name = "relaxation_spectrum".into();
+        f.term.params["closest_exact_form"] = serde_json::json!({
+            "effect": x.effect.name(),
+            "drive": if x.effect == Effect::SecondTimeConstant { Some(x.drive.label()) } else { None },
+            "tau2_s": if x.effect == Effect::SecondTimeConstant { Some(x.tau2_s) } else { None },
+            "heldout_gain": x.gain,
+        });
         return;
     }
     let arr = |k: &str| -> Vec<f64> { f.term.params[k].as_array().map(|a| a.iter().filter_map(|v| v.as_f64()).collect()).unwrap_or_default() };
@@ -450,6 +459,57 @@ fn name_spectrum(f: &mut Finding, exact: Option<&Exact>) {
     f.effect = effect.name();
     f.explanation = why;
     f.term.name = "relaxation_spectrum".into();
+}
+
+/// The catalogue's model with its exact relaxation terms (creep, a second time constant) replaced
+/// by the relaxation spectrum, its ramp and own-decay option chosen by inner cross-validation, and
+/// the decision: accepted when it predicts held-out data better with a paired z of at least
+/// MIN_Z and, both with their first-order shape refitted, lowers the held-out RMSE by more than
+/// SPECTRUM_MARGIN.
+#[allow(clippy::too_many_arguments)]
+fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score: &Score, hat: &Hat, actuator: bool, step: usize) -> Option<(Config, Score, Vec<f64>, Decision)> {
+    let mut base = cur.clone();
+    base.effects.retain(|e| !matches!(e, Effect::Creep | Effect::SecondTimeConstant));
+    let mut pick: Option<(Config, f64)> = None;
+    for rx in relax_candidates(trials, actuator) {
+        let mut c = base.clone();
+        c.effects.push(Effect::Relaxation);
+        c.relax = Some(rx);
+        if let Some(cv) = relax_cv(d, trials, &c, hat) {
+            if pick.as_ref().is_none_or(|p| cv < p.1) {
+                pick = Some((c, cv));
+            }
+        }
+    }
+    // then the ramp refined around the pick: half a grid step either way in duration and end
+    let (mut c, mut best_cv) = pick?;
+    if let Some(rx) = c.relax.clone() {
+        let (dr, de) = if actuator { (1.0, 0.5) } else { (0.15, 0.15) };
+        for (ramp_s, end_s) in [(rx.ramp_s - dr, rx.end_s), (rx.ramp_s + dr, rx.end_s), (rx.ramp_s, rx.end_s - de), (rx.ramp_s, rx.end_s + de)] {
+            if ramp_s < 0.0 {
+                continue;
+            }
+            let mut cand = c.clone();
+            cand.relax = Some(Relax { ramp_s, end_s, ..rx.clone() });
+            if let Some(cv) = relax_cv(d, trials, &cand, hat).filter(|cv| *cv < best_cv) {
+                (c, best_cv) = (cand, cv);
+            }
+        }
+    }
+    let (s, x) = score(d, trials, &c, hat)?;
+    let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
+    let z = paired_z(&cur_score.units, &s.units);
+    // both with their first-order shape refitted (as the final model will be): the spectrum's
+    // short kernels otherwise take the credit for the misfit of the part-1 onsets and time
+    // constants, which the refit removes from either
+    let refitted = |c: &Config| refit_onsets(d, trials, c, hat).and_then(|(g, _)| score(d, &g, c, hat)).map(|(s, _)| s.heldout_rmse);
+    let clearly = match (refitted(&c), refitted(cur)) {
+        (Some(a), Some(b)) => a < (1.0 - SPECTRUM_MARGIN) * b,
+        _ => s.heldout_rmse < (1.0 - SPECTRUM_MARGIN) * cur_score.heldout_rmse,
+    };
+    let accepted = gain > 0.0 && z >= MIN_Z && clearly;
+    let dec = Decision { step, candidate: Effect::Relaxation.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: s.bic - cur_score.bic, accepted };
+    Some((c, s, x, dec))
 }
 
 /// The relaxation spectrum's candidate shapes: its τ grid from the samples' spacing (or the
@@ -628,7 +688,7 @@ fn sum_normals(d: &Design, cfg: &Config, parts: &[&Normal]) -> Normal {
 
 /// The relaxation penalties tried by inner cross-validation (relative to the spectrum's mean
 /// column energy).
-const LAMBDAS: [f64; 8] = [1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0];
+const LAMBDAS: [f64; 15] = [1e-5, 3.16e-5, 1e-4, 3.16e-4, 1e-3, 3.16e-3, 1e-2, 3.16e-2, 1e-1, 3.16e-1, 1.0, 3.16, 10.0, 31.6, 100.0];
 
 /// The relaxation penalty with the least leave-one-unit-out error over `parts` (each part's
 /// error from the fit to all the others).
@@ -1733,15 +1793,16 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     let mut cur = base_cfg.clone();
     let (mut cur_score, mut cur_x) = (clean.clone(), xc.clone());
     let mut spectrum_exact: Option<Exact> = None;
+    let mut round0_exact: Option<Exact> = None;
     let mut findings = Vec::new();
     let mut decisions = Vec::new();
     for round in 0..CATALOGUE.len() {
         let mut best: Option<(Effect, Config, Score, Vec<f64>)> = None;
-        let mut spectrum: Option<(Effect, Config, Score, Vec<f64>)> = None;
         // the exact form (creep, one second relaxation) that predicts held-out data best this round
         let mut exact: Option<Exact> = None;
         for &e in &CATALOGUE {
-            if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) {
+            // the spectrum is tried once the catalogue's model stands (below)
+            if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) || e == Effect::Relaxation {
                 continue;
             }
             // the spectrum holds creep and a second relaxation alike: it stands instead of them
@@ -1843,25 +1904,14 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
                 exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
             }
-            let passes = gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC;
-            if passes && e == Effect::Relaxation {
-                spectrum = Some((e, c, s, x));
-            } else if passes && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
+            if gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
                 best = Some((e, c, s, x));
             }
         }
-        // the spectrum is the general form of creep and a second relaxation: it enters when it
-        // predicts held-out data clearly better than the best of the exact forms (which BIC ranks),
-        // else the exact form does (fewer amplitudes to estimate from the same data)
-        if let Some(sp) = spectrum {
-            if best.as_ref().is_none_or(|b| sp.2.heldout_rmse < (1.0 - SPECTRUM_MARGIN) * b.2.heldout_rmse) {
-                best = Some(sp);
-            }
+        if round == 0 {
+            round0_exact = exact;
         }
         let Some((e, c, s, x)) = best else { break };
-        if e == Effect::Relaxation {
-            spectrum_exact = exact;
-        }
         if let Some(dc) = decisions.iter_mut().rev().find(|dc| dc.step == round && dc.candidate == e.name()) {
             dc.accepted = true;
         }
@@ -1949,6 +1999,49 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         cur = c;
         cur_score = s_wo;
         cur_x = x_wo;
+    }
+    // the relaxation spectrum (issue 15): the exact forms of relaxation (creep, one second time
+    // constant) give way to a spectrum over every change when it predicts the held-out data
+    // clearly better than the whole model the catalogue found
+    if !d.prior {
+        let step = decisions.last().map(|d| d.step + 1).unwrap_or(0);
+        if let Some((c, s, x, dec)) = try_spectrum(&d, &trials, &cur, &cur_score, &hat, actuator, step) {
+            let accepted = dec.accepted;
+            decisions.push(dec);
+            if accepted {
+                // named after the exact form it replaces that gained most, else the one that
+                // predicted best on the baseline
+                let replaced = findings.iter().filter(|f| f.effect == Effect::Creep.name() || f.effect == Effect::SecondTimeConstant.name()).max_by(|a, b| (a.heldout_rmse_before - a.heldout_rmse_after).total_cmp(&(b.heldout_rmse_before - b.heldout_rmse_after)));
+                spectrum_exact = match replaced {
+                    Some(f) => Some(Exact {
+                        effect: if f.effect == Effect::Creep.name() { Effect::Creep } else { Effect::SecondTimeConstant },
+                        drive: cur.drive,
+                        tau2_s: cur.tau2,
+                        gain: (f.heldout_rmse_before - f.heldout_rmse_after) / f.heldout_rmse_before.max(1e-300),
+                    }),
+                    None => round0_exact.clone(),
+                };
+                let mut windows = signature(Effect::Relaxation, &hold_data(&d, &trials, &cur_x, &cur, &hat), &trials, clip, &report);
+                if windows.is_empty() {
+                    windows = locate(&d, &trials, &cur_x, &cur, &hat);
+                }
+                findings.retain(|f| f.effect != Effect::Creep.name() && f.effect != Effect::SecondTimeConstant.name());
+                let dbic = s.bic - cur_score.bic;
+                findings.push(Finding {
+                    effect: Effect::Relaxation.name(),
+                    confidence: if dbic < -100.0 { "high" } else { "medium" },
+                    explanation: Effect::Relaxation.explanation().to_string(),
+                    windows,
+                    term: Term { name: "relaxation_term".into(), params: term_params(&d, &c, &x, Effect::Relaxation, &hat) },
+                    heldout_rmse_before: cur_score.heldout_rmse,
+                    heldout_rmse_after: s.heldout_rmse,
+                    delta_bic: dbic,
+                });
+                cur = c;
+                cur_score = s;
+                cur_x = x;
+            }
+        }
     }
     // the second relaxation's τ2 was chosen on a grid (steps of ×1.371): refined between the grid
     // points around it by golden-section search on the training fit (the same rule that chose it),
