@@ -65,6 +65,47 @@ pub struct StepReport {
     pub lsq_trials: Vec<StepFit>,
     pub paper: Option<PaperFit>,
     pub trials: usize,
+    /// The hold after the step (logged change to the next), s.
+    pub hold_s: f64,
+    /// Why the fitted τ describes creep rather than a first-order step, when it does.
+    pub tau_describes_creep: Option<String>,
+}
+
+/// A fitted τ of at least this share of the hold describes creep: the step would not settle
+/// (within 1 %) before the hold ends.
+pub const CREEP_TAU_HOLD_SHARE: f64 = 0.2;
+
+/// Why a step's fitted τ describes creep rather than the first-order part, if it does: τ of the
+/// order of the hold, or a jump the fitted τ cannot make (more than half the change within the
+/// first three samples after the onset, where the first-order curve reaches under a quarter).
+fn tau_describes_creep(g: &fit::StepData, f: &fit::StepFit, hold_s: f64) -> Option<String> {
+    if f.tau_s >= CREEP_TAU_HOLD_SHARE * hold_s {
+        return Some(format!(
+            "τ = {:.3} s is of the order of the hold ({:.1} s): the step does not settle within it, so the fitted τ describes the slow creep under the load, not a first-order response",
+            f.tau_s, hold_s
+        ));
+    }
+    let (mut seen, mut model, mut n) = (0.0, 0.0, 0usize);
+    for (tr, tp) in g.trials.iter().zip(&f.trials) {
+        let after: Vec<usize> = (0..tr.t.len()).filter(|&j| tr.t[j] >= tp.t0).take(3).collect();
+        for j in after {
+            seen += (tr.v[j] - tp.v0) / f.k;
+            model += 1.0 - (-(tr.t[j] - tp.t0) / f.tau_s).exp();
+            n += 1;
+        }
+    }
+    if n == 0 || f.k == 0.0 {
+        return None;
+    }
+    let (seen, model) = (seen / n as f64, model / n as f64);
+    (seen > 0.5 && model < 0.25).then(|| {
+        format!(
+            "the response makes {:.0} % of the change within three samples of the onset, where a first-order step of τ = {:.3} s makes {:.0} %: the jump is faster than the fit's τ, which describes the slow creep after it",
+            100.0 * seen,
+            f.tau_s,
+            100.0 * model
+        )
+    })
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -250,7 +291,11 @@ fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepRep
             vec![]
         };
         let paper = if opts.method != Method::Lsq { fit::paper(g, weight.max(1e-12), opts.paper_grid) } else { None };
+        let hold_s = g.step.t_end - g.step.t_log;
+        let creep = lsq.as_ref().and_then(|f| tau_describes_creep(g, f, hold_s));
         steps.push(StepReport {
+            hold_s,
+            tau_describes_creep: creep,
             phase: g.step.phase,
             index: g.step.index,
             before: g.step.before,

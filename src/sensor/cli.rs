@@ -90,6 +90,9 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, actuator: bool, out:
             l += &format!(" paper k = {:.4} {} per {}, τ = {:.3} s, Eq.4 {:.4}", p.k, report.unit, s.weight_unit, p.tau_s, p.eq4);
         }
         lines.push(l);
+        if let Some(why) = &s.tau_describes_creep {
+            lines.push(format!("  creep-dominated: {why}"));
+        }
     }
     if let Some(f) = &report.fashion {
         lines.push(format!("fashion: conductance ∝ (load + {:.1})^{:.3}; τ = {:.3} + {:.5}·load s", f.preload, f.n, f.tau0_s, f.tau1_s_per_unit));

@@ -1178,6 +1178,9 @@ pub struct Diagnosis {
     /// Where the baseline fails, before any term is chosen: each catalogue signature's windows and
     /// the whiteness test's, each with its statistic.
     pub located: Vec<LocatedWindow>,
+    /// What the baseline's own fits say about themselves: steps whose fitted τ describes creep
+    /// (of the order of the hold, or slower than the jump it follows).
+    pub notes: Vec<String>,
     #[serde(skip)]
     pub predictions: Vec<Prediction>,
 }
@@ -2172,7 +2175,13 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             *n = f.effect;
         }
     }
+    let notes = report
+        .steps
+        .iter()
+        .filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after)))
+        .collect();
     Some(Outcome::Done(Box::new(Diagnosis {
+        notes,
         schema: SCHEMA,
         recordings: recs.iter().map(|r| r.source.clone()).collect(),
         unit: report.unit.clone(),

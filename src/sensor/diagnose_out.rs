@@ -57,6 +57,9 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
             d.unexplained.evidence.first().cloned().unwrap_or_default()
         ));
     }
+    for n in &d.notes {
+        out.push(format!("creep-dominated baseline step: {n}"));
+    }
     let effects = if d.final_.effects.is_empty() { "the baseline alone".to_string() } else { format!("baseline + {}", d.final_.effects.join(" + ")) };
     let change = if d.baseline.heldout_rmse > 0.0 { format!(" ({:+.1} %)", 100.0 * (d.final_.heldout_rmse / d.baseline.heldout_rmse - 1.0)) } else { String::new() };
     let units = if d.final_.effects.is_empty() { String::new() } else { format!(", better on {} of {} held-out units", d.final_.units_better, d.final_.units_scored) };
