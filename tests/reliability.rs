@@ -169,10 +169,12 @@ fn a_simulator_baseline_is_called_one_on_the_console() {
 
 /// Found by the 5 000-mutant fuzz run: the shared recording cut short (its last step 28 s of a
 /// 300 s hold) left a fold that could not determine the held-out step's level, and its held-out
-/// error was beyond the signal's range. That is the user's input (too few steps to hold out),
-/// exit 2 with a sentence, not an internal error and never a number.
+/// error was beyond the signal's range. Then it was refused (too few steps to hold out). Since
+/// issue 15 a recording whose load levels are not each held in two steps is scored inside its
+/// holds, forward in time (each block of a hold predicted from the blocks before it): the cut
+/// recordings are diagnosed, every held-out number within the guard's bounds (else exit 2).
 #[test]
-fn a_recording_too_short_to_hold_out_is_an_input_error() {
+fn a_recording_too_short_to_leave_steps_out_is_scored_inside_its_holds() {
     let real = Path::new("../shared/data/real/cbsilicone_v10_Ro.csv");
     if !real.exists() {
         eprintln!("skipped: {} is absent", real.display());
@@ -184,9 +186,12 @@ fn a_recording_too_short_to_hold_out_is_an_input_error() {
         let f = d.join(name);
         std::fs::write(&f, text.lines().take(lines).collect::<Vec<_>>().join("\n") + "\n").unwrap();
         let (code, out) = tipforge([OsArg::s("diagnose"), OsArg::p(&f), OsArg::s("--out"), OsArg::p(&d.join("diag"))]);
-        assert_eq!(code, 2, "{name}: {out}");
-        assert!(out.contains("too few steps to hold out") && !out.contains("internal error"), "{out}");
-        assert!(!d.join("diag").exists());
+        assert_eq!(code, 0, "{name}: {out}");
+        assert!(out.contains("held-out RMSE") && !out.contains("internal error"), "{out}");
+        let j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.join("diag/diagnosis.json")).unwrap()).unwrap();
+        // the units are blocks of holds: more of them than the recording has steps
+        assert!(j["final"]["heldout_by_unit"].as_array().unwrap().len() > 4, "{name}: {}", j["final"]);
+        let _ = std::fs::remove_dir_all(d.join("diag"));
     }
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -69,6 +69,9 @@ pub struct StepReport {
     pub hold_s: f64,
     /// Why the fitted τ describes creep rather than a first-order step, when it does.
     pub tau_describes_creep: Option<String>,
+    /// Per trial of the pooled fit (in its order): the time of the step's jump when the step is a
+    /// jump within one sample ([`fit::jump_time`]), else None.
+    pub jumps: Vec<Option<f64>>,
 }
 
 /// A fitted τ of at least this share of the hold describes creep: the step would not settle
@@ -237,8 +240,17 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
                 .iter()
                 .enumerate()
                 .filter_map(|(k, st)| {
-                    let f = steps.iter().find(|s| s.phase == st.phase && s.index == st.index)?.lsq.as_ref()?;
-                    let t0 = f.trials.iter().find(|tp| tp.recording == rec.source)?.t0;
+                    let sr = steps.iter().find(|s| s.phase == st.phase && s.index == st.index)?;
+                    let f = sr.lsq.as_ref()?;
+                    let q = f.trials.iter().position(|tp| tp.recording == rec.source)?;
+                    // a jump's edge is the jump (the fitted curve's, slower, would take the
+                    // samples after it for spikes)
+                    if let Some(tj) = sr.jumps.get(q).copied().flatten() {
+                        let dt = 1.0 / rec.sample_rate_hz();
+                        let from = (st.t_log - preprocess::HANDLING_WINDOW_S).max(if k > 0 { own[k - 1].t_log + 0.5 * (st.t_log - own[k - 1].t_log) } else { f64::NEG_INFINITY });
+                        return Some(EdgeStep { t0_s: tj, tau_s: 0.05 * dt, from_s: from, to_s: (st.t_log + preprocess::HANDLING_WINDOW_S).min(st.t_end) });
+                    }
+                    let t0 = f.trials[q].t0;
                     let from = (st.t_log - preprocess::HANDLING_WINDOW_S).max(if k > 0 { own[k - 1].t_log + 0.5 * (st.t_log - own[k - 1].t_log) } else { f64::NEG_INFINITY });
                     let to = (st.t_log + preprocess::HANDLING_WINDOW_S).min(st.t_end);
                     Some(EdgeStep { t0_s: t0, tau_s: f.tau_s, from_s: from, to_s: to })
@@ -293,7 +305,9 @@ fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepRep
         let paper = if opts.method != Method::Lsq { fit::paper(g, weight.max(1e-12), opts.paper_grid) } else { None };
         let hold_s = g.step.t_end - g.step.t_log;
         let creep = lsq.as_ref().and_then(|f| tau_describes_creep(g, f, hold_s));
+        let jumps = lsq.as_ref().map(|f| g.trials.iter().zip(&f.trials).map(|(tr, tp)| fit::jump_time(tr, tp, f)).collect()).unwrap_or_default();
         steps.push(StepReport {
+            jumps,
             hold_s,
             tau_describes_creep: creep,
             phase: g.step.phase,
