@@ -19,9 +19,6 @@ use serde::Serialize;
 
 /// A term must improve held-out prediction with a paired z of at least this over units.
 pub const MIN_Z: f64 = 3.0;
-/// ... and lower the held-out RMSE by at least this share (issue 15: a term worth naming changes
-/// the prediction; on a single 10 Hz step, second relaxations of 0.9–1.8 % passed the z alone).
-pub const MIN_GAIN: f64 = 0.03;
 pub const MIN_DBIC: f64 = -10.0;
 /// The relaxation spectrum is preferred to an exact form (creep, one second time constant) that
 /// also passes only when its held-out RMSE (both with their first-order shape refitted) is lower
@@ -2005,7 +2002,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
                 exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
             }
-            if gain >= MIN_GAIN && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
+            if gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
                 best = Some((e, c, s, x));
             }
         }

@@ -142,29 +142,22 @@ impl StepFit {
 pub const ONSET_LEAD_S: f64 = 2.0;
 
 /// When a trial's step is a jump within one sample (the load landing at once, anything slower
-/// after it), the time of the jump: midway between the two samples around the detected onset
-/// that differ most. A jump: the fitted τ is under one sample interval; or the first sample after
-/// the onset already holds more than half the change and over twice what the fitted curve
-/// reaches there; or the fitted curve would have begun more than [`ONSET_LEAD_S`] (5 samples)
-/// before the detected onset (a slow τ fitted to the creep after a jump puts it minutes back).
+/// after it), the time of the jump: midway between the two consecutive samples within three
+/// intervals of the detected onset that differ most. A jump: those two samples differ by at least
+/// half the step's change, or the fitted τ is under one sample interval, or the fitted curve
+/// would have begun more than [`ONSET_LEAD_S`] (5 samples) before the detected onset (a slow τ
+/// fitted to the creep after a jump puts it minutes back).
 pub fn jump_time(tr: &Trial, tp: &TrialParams, f: &StepFit) -> Option<f64> {
     let n = tr.t.len();
     if n < 3 || f.k == 0.0 {
         return None;
     }
     let dt = (tr.t[n - 1] - tr.t[0]) / (n - 1) as f64;
-    let first = (0..n).find(|&j| tr.t[j] >= tr.t_on)?;
-    let seen = (tr.v[first] - tp.v0) / f.k;
-    let curve = if tr.t[first] > tp.t0 { 1.0 - (-(tr.t[first] - tp.t0) / f.tau_s).exp() } else { 0.0 };
-    let jump = f.tau_s < dt || (seen > 0.5 && seen > 2.0 * curve) || tp.t0 < tr.t_on - ONSET_LEAD_S.max(5.0 * dt);
-    if !jump {
-        return None;
-    }
     let near: Vec<usize> = (0..n).filter(|&j| (tr.t[j] - tr.t_on).abs() <= 3.0 * dt + 1e-9).collect();
-    near.windows(2)
-        .filter(|w| w[1] == w[0] + 1)
-        .max_by(|a, b| (tr.v[a[1]] - tr.v[a[0]]).abs().total_cmp(&(tr.v[b[1]] - tr.v[b[0]]).abs()))
-        .map(|w| 0.5 * (tr.t[w[0]] + tr.t[w[1]]))
+    let (a, b) = near.windows(2).filter(|w| w[1] == w[0] + 1).map(|w| (w[0], w[1])).max_by(|x, y| (tr.v[x.1] - tr.v[x.0]).abs().total_cmp(&(tr.v[y.1] - tr.v[y.0]).abs()))?;
+    let leap = (tr.v[b] - tr.v[a]) / f.k;
+    let jump = leap >= 0.5 || f.tau_s < dt || tp.t0 < tr.t_on - ONSET_LEAD_S.max(5.0 * dt);
+    jump.then(|| 0.5 * (tr.t[a] + tr.t[b]))
 }
 
 /// exp(−(t_j − t_on)/τ) for the post-onset samples of a trial, by recurrence where the sample

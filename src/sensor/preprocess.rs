@@ -101,7 +101,41 @@ pub fn noise_sigma(v: &[f64]) -> f64 {
     for x in d.iter_mut() {
         *x = (*x - m).abs();
     }
-    1.4826 * median(&mut d) / std::f64::consts::SQRT_2
+    1.4826 * quantised_median(&mut d) / std::f64::consts::SQRT_2
+}
+
+/// The median of non-negative values that may sit on a coarse grid (an ADC's steps): when the
+/// grid step is over 0.4 × the plain median, the median of the values spread evenly over their
+/// grid cells (the plain median of values of one or two steps is off by up to half the noise: on
+/// a 10-bit, 10 Hz recording with σ = 2 steps it read σ/2); else the plain median.
+fn quantised_median(a: &mut [f64]) -> f64 {
+    let plain = median(a);
+    a.sort_by(|x, y| x.total_cmp(y));
+    // the grid step: the smallest gap between values that is not a rounding of one value
+    let q = a.windows(2).map(|w| w[1] - w[0]).filter(|g| *g > 0.05 * plain).fold(f64::INFINITY, f64::min);
+    if !q.is_finite() || q <= 0.4 * plain || a.is_empty() {
+        return plain;
+    }
+    // each value spread over [v − q/2, v + q/2] (the zero cell over [0, q/2]): the point where
+    // half the mass lies below
+    let half = 0.5 * a.len() as f64;
+    let mut below = 0.0;
+    let mut i = 0;
+    while i < a.len() {
+        let v = a[i];
+        let mut j = i;
+        while j < a.len() && (a[j] - v).abs() <= 0.25 * q {
+            j += 1;
+        }
+        let count = (j - i) as f64;
+        if below + count >= half {
+            let (lo, width) = if v < 0.5 * q { (0.0, 0.5 * q) } else { (v - 0.5 * q, q) };
+            return lo + width * (half - below) / count;
+        }
+        below += count;
+        i = j;
+    }
+    plain
 }
 
 /// The span (s) over which the spike detector measures the local noise.
