@@ -78,10 +78,14 @@ pub struct StepReport {
 /// (within 1 %) before the hold ends.
 pub const CREEP_TAU_HOLD_SHARE: f64 = 0.2;
 
-/// Why a step's fitted τ describes creep rather than the first-order part, if it does: τ of the
-/// order of the hold, or a jump the fitted τ cannot make (more than half the change within the
+/// Why a step's fitted τ describes creep rather than the first-order part, if it does (a τ
+/// determined to better than ±50 %): τ of the order of the hold, or a jump the fitted τ cannot make (more than half the change within the
 /// first three samples after the onset, where the first-order curve reaches under a quarter).
 fn tau_describes_creep(g: &fit::StepData, f: &fit::StepFit, hold_s: f64) -> Option<String> {
+    // a τ the data do not determine (a step small against the noise) describes nothing
+    if !(f.se_tau_s < 0.5 * f.tau_s) {
+        return None;
+    }
     if f.tau_s >= CREEP_TAU_HOLD_SHARE * hold_s {
         return Some(format!(
             "τ = {:.3} s is of the order of the hold ({:.1} s): the step does not settle within it, so the fitted τ describes the slow creep under the load, not a first-order response",

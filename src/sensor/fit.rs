@@ -144,9 +144,9 @@ pub const ONSET_LEAD_S: f64 = 2.0;
 /// When a trial's step is a jump within one sample (the load landing at once, anything slower
 /// after it), the time of the jump: midway between the two consecutive samples within three
 /// intervals of the detected onset that differ most. A jump: those two samples differ by at least
-/// half the step's change, or the fitted τ is under one sample interval, or the fitted curve
-/// would have begun more than [`ONSET_LEAD_S`] (5 samples) before the detected onset (a slow τ
-/// fitted to the creep after a jump puts it minutes back).
+/// half the step's change (and by five times the noise of such a difference), or the fitted τ is under one sample interval, or the fitted curve
+/// would have begun more than [`ONSET_LEAD_S`] (5 samples) before the detected onset (a slow τ,
+/// determined to better than ±50 %, fitted to the creep after a jump puts it minutes back).
 pub fn jump_time(tr: &Trial, tp: &TrialParams, f: &StepFit) -> Option<f64> {
     let n = tr.t.len();
     if n < 3 || f.k == 0.0 {
@@ -155,8 +155,14 @@ pub fn jump_time(tr: &Trial, tp: &TrialParams, f: &StepFit) -> Option<f64> {
     let dt = (tr.t[n - 1] - tr.t[0]) / (n - 1) as f64;
     let near: Vec<usize> = (0..n).filter(|&j| (tr.t[j] - tr.t_on).abs() <= 3.0 * dt + 1e-9).collect();
     let (a, b) = near.windows(2).filter(|w| w[1] == w[0] + 1).map(|w| (w[0], w[1])).max_by(|x, y| (tr.v[x.1] - tr.v[x.0]).abs().total_cmp(&(tr.v[y.1] - tr.v[y.0]).abs()))?;
-    let leap = (tr.v[b] - tr.v[a]) / f.k;
-    let jump = leap >= 0.5 || f.tau_s < dt || tp.t0 < tr.t_on - ONSET_LEAD_S.max(5.0 * dt);
+    // the leap must stand out of the noise of a difference of two samples (5σ), or a small
+    // step's noise would pass for half of it
+    let noise = super::preprocess::noise_sigma(&tr.v) * std::f64::consts::SQRT_2;
+    let leap = if (tr.v[b] - tr.v[a]).abs() > 5.0 * noise { (tr.v[b] - tr.v[a]) / f.k } else { 0.0 };
+    // (the onset a slow τ implies counts only when that τ is determined: a small step in the
+    // noise fits any τ)
+    let determined = f.se_tau_s < 0.5 * f.tau_s;
+    let jump = leap >= 0.5 || f.tau_s < dt || (determined && tp.t0 < tr.t_on - ONSET_LEAD_S.max(5.0 * dt));
     jump.then(|| 0.5 * (tr.t[a] + tr.t[b]))
 }
 
