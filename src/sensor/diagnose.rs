@@ -113,6 +113,9 @@ struct Relax {
     lambda: Option<f64>,
     /// With the steps' own first-order decay among the columns ([`OWN_TAU_COLS`]).
     own_tau: bool,
+    /// One set of amplitudes for loading and unloading changes alike (linear viscoelasticity: the
+    /// recovery mirrors the creep); the unloading set's columns stay empty.
+    shared: bool,
     /// One more kernel set per trial, from its first sample: the relaxation the sample brings
     /// from before the recording (how long it rested differs between trials).
     trials: usize,
@@ -395,7 +398,7 @@ fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx: &Relax, o
             break;
         }
         let dv = steps.dv(q);
-        let set = if steps.unloading(q) { k } else { 0 };
+        let set = if steps.unloading(q) && !rx.shared { k } else { 0 };
         let own = rx.sets() * k + usize::from(steps.unloading(q));
         let since = t - steps.t0(q);
         if since >= 0.0 && rx.own_tau {
@@ -529,7 +532,10 @@ fn relax_candidates(trials: &[Trial], actuator: bool) -> Vec<Relax> {
     let taus = catalogue::relaxation::grid((2.0 * dt).max(2.0 * half).max(0.1), 0.5 * span);
     let (ramps, ends): (&[f64], &[f64]) = if actuator { (&[0.0, 2.0, 4.0, 6.0, 8.0], &[-2.0, -1.0, 0.0]) } else { (&[0.0, 0.3, 0.6], &[-0.3, 0.0, 0.3]) };
     let shapes = ramps.iter().flat_map(|&ramp_s| ends.iter().map(move |&end_s| (ramp_s, end_s)));
-    shapes.flat_map(|(ramp_s, end_s)| [false, true].map(|own_tau| Relax { taus: taus.clone(), ramp_s, end_s, lambda: None, own_tau, trials: n_trials })).collect()
+    // a recording scored in forward blocks has one change of a kind per hold: a set per kind would
+    // be estimated from the hold it forecasts, so loading and unloading share one
+    let shared = hold_blocks(trials) > 0;
+    shapes.flat_map(|(ramp_s, end_s)| [false, true].map(|own_tau| Relax { taus: taus.clone(), ramp_s, end_s, lambda: None, own_tau, shared, trials: n_trials })).collect()
 }
 
 /// Leave-one-unit-out error of a configuration on all the data, its relaxation penalty chosen

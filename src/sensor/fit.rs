@@ -144,7 +144,8 @@ pub const ONSET_LEAD_S: f64 = 2.0;
 /// When a trial's step is a jump within one sample (the load landing at once, anything slower
 /// after it), the time of the jump: midway between the two consecutive samples within three
 /// intervals of the detected onset that differ most. A jump: those two samples differ by at least
-/// half the step's change (and by five times the noise of such a difference), or the fitted τ is under one sample interval, or the fitted curve
+/// half the step's change (by five times the noise of such a difference, landing within half the
+/// change of the new level), or the fitted τ is under one sample interval, or the fitted curve
 /// would have begun more than [`ONSET_LEAD_S`] (5 samples) before the detected onset (a slow τ,
 /// determined to better than ±50 %, fitted to the creep after a jump puts it minutes back).
 pub fn jump_time(tr: &Trial, tp: &TrialParams, f: &StepFit) -> Option<f64> {
@@ -158,7 +159,10 @@ pub fn jump_time(tr: &Trial, tp: &TrialParams, f: &StepFit) -> Option<f64> {
     // the leap must stand out of the noise of a difference of two samples (5σ), or a small
     // step's noise would pass for half of it
     let noise = super::preprocess::noise_sigma(&tr.v) * std::f64::consts::SQRT_2;
-    let leap = if (tr.v[b] - tr.v[a]).abs() > 5.0 * noise { (tr.v[b] - tr.v[a]) / f.k } else { 0.0 };
+    // and land near the new level (within half the change): a leap far past it is the start of a
+    // relaxation back (a change-driven overshoot), not the step
+    let lands = (tr.v[b] - tp.v0 - f.k).abs() < 0.5 * f.k.abs();
+    let leap = if (tr.v[b] - tr.v[a]).abs() > 5.0 * noise && lands { (tr.v[b] - tr.v[a]) / f.k } else { 0.0 };
     // (the onset a slow τ implies counts only when that τ is determined: a small step in the
     // noise fits any τ)
     let determined = f.se_tau_s < 0.5 * f.tau_s;
