@@ -475,11 +475,14 @@ fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score: &Score, h
     let mut base = cur.clone();
     base.effects.retain(|e| !matches!(e, Effect::Creep | Effect::SecondTimeConstant));
     let mut pick: Option<(Config, f64)> = None;
+    // the shape is chosen on every k-th sample of a long recording (the ranking of a few dozen
+    // candidates does not need 10^7 rows); scored and refitted on all of them
+    let search = thinned(trials, SEARCH_ROWS);
     for rx in relax_candidates(trials, actuator) {
         let mut c = base.clone();
         c.effects.push(Effect::Relaxation);
         c.relax = Some(rx);
-        if let Some(cv) = relax_cv(d, trials, &c, hat) {
+        if let Some(cv) = relax_cv(d, &search, &c, hat) {
             if pick.as_ref().is_none_or(|p| cv < p.1) {
                 pick = Some((c, cv));
             }
@@ -495,25 +498,80 @@ fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score: &Score, h
             }
             let mut cand = c.clone();
             cand.relax = Some(Relax { ramp_s, end_s, ..rx.clone() });
-            if let Some(cv) = relax_cv(d, trials, &cand, hat).filter(|cv| *cv < best_cv) {
+            if let Some(cv) = relax_cv(d, &search, &cand, hat).filter(|cv| *cv < best_cv) {
                 (c, best_cv) = (cand, cv);
             }
         }
     }
-    let (s, x) = score(d, trials, &c, hat)?;
-    let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
-    let z = paired_z(&cur_score.units, &s.units);
+    // held out with the penalty chosen inside every fold; a long recording is judged on every
+    // k-th sample (both models alike), and scored on all of them only when the spectrum enters
+    let judged = thinned(trials, JUDGE_ROWS);
+    let long = judged[0].t.len() != trials[0].t.len();
+    let cur_judged = if long { score(d, &judged, cur, hat)?.0 } else { cur_score.clone() };
+    let (s, x) = score(d, &judged, &c, hat)?;
+    let gain = (cur_judged.heldout_rmse - s.heldout_rmse) / cur_judged.heldout_rmse.max(1e-300);
+    let z = paired_z(&cur_judged.units, &s.units);
+    // from here on (the refits, the final model) the penalty chosen on all the data (judged)
+    if c.relax.is_some() && gain > 0.0 && z >= MIN_Z {
+        let units = unit_normals(d, &judged, &all_rows(&judged), &c, hat);
+        let lambda = choose_lambda(d, &c, &units.values().collect::<Vec<_>>(), None);
+        if let Some(rx) = c.relax.as_mut() {
+            rx.lambda = Some(lambda);
+        }
+    }
     // both with their first-order shape refitted (as the final model will be): the spectrum's
     // short kernels otherwise take the credit for the misfit of the part-1 onsets and time
     // constants, which the refit removes from either
-    let refitted = |c: &Config| refit_onsets(d, trials, c, hat).and_then(|(g, _)| score(d, &g, c, hat)).map(|(s, _)| s.heldout_rmse);
-    let clearly = match (refitted(&c), refitted(cur)) {
-        (Some(a), Some(b)) => a < (1.0 - SPECTRUM_MARGIN) * b,
-        _ => s.heldout_rmse < (1.0 - SPECTRUM_MARGIN) * cur_score.heldout_rmse,
+    let refitted = |c: &Config| refit_onsets(d, &judged, c, hat).and_then(|(g, _)| score(d, &g, c, hat)).map(|(s, _)| s.heldout_rmse);
+    let clearly = gain > 0.0
+        && z >= MIN_Z
+        && match (refitted(&c), refitted(cur)) {
+            (Some(a), Some(b)) => a < (1.0 - SPECTRUM_MARGIN) * b,
+            _ => s.heldout_rmse < (1.0 - SPECTRUM_MARGIN) * cur_judged.heldout_rmse,
+        };
+    let accepted = clearly;
+    let (s, x) = if long && accepted {
+        let mut c_folds = c.clone();
+        if let Some(rx) = c_folds.relax.as_mut() {
+            rx.lambda = None;
+        }
+        let (s, _) = score(d, trials, &c_folds, hat)?;
+        (s, score(d, trials, &c, hat)?.1)
+    } else {
+        (s, x)
     };
-    let accepted = gain > 0.0 && z >= MIN_Z && clearly;
-    let dec = Decision { step, candidate: Effect::Relaxation.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: s.bic - cur_score.bic, accepted };
+    let dec = Decision { step, candidate: Effect::Relaxation.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: s.bic - cur_judged.bic, accepted };
     Some((c, s, x, dec))
+}
+
+/// Samples the spectrum's shape search uses at most (every k-th sample of longer data).
+const SEARCH_ROWS: usize = 20_000;
+/// Samples the spectrum's held-out judgement uses at most (both models on every k-th sample).
+const JUDGE_ROWS: usize = 50_000;
+
+/// The trials with every k-th sample, k the smallest that keeps them within `max_rows`.
+fn thinned(trials: &[Trial], max_rows: usize) -> Vec<Trial> {
+    let n: usize = trials.iter().map(|t| t.t.len()).sum();
+    let k = n.div_ceil(max_rows.max(1)).max(1);
+    if k == 1 {
+        return trials.to_vec();
+    }
+    trials
+        .iter()
+        .map(|tr| Trial {
+            name: tr.name.clone(),
+            t: tr.t.iter().step_by(k).copied().collect(),
+            v: tr.v.iter().step_by(k).copied().collect(),
+            segs: tr.segs.clone(),
+            sigma: tr.sigma,
+            prior0: tr.prior0,
+            clip_margin: tr.clip_margin,
+            half_span_s: tr.half_span_s,
+            // the series as given is not used by the spectrum's search
+            given_t: Vec::new(),
+            given_v: Vec::new(),
+        })
+        .collect()
 }
 
 /// The relaxation spectrum's candidate shapes: its τ grid from the samples' spacing (or the
@@ -525,8 +583,8 @@ fn relax_candidates(trials: &[Trial], actuator: bool) -> Vec<Relax> {
     // spectrum fitted beside them does not carry over (on family A, 3 trials: held-out RMSE of a
     // second relaxation 0.0018 -> 0.0198 V with them)
     let n_trials = if trials.len() == 1 { 1 } else { 0 };
-    let mut dts: Vec<f64> = trials.iter().flat_map(|tr| tr.t.windows(2).map(|w| w[1] - w[0])).filter(|d| *d > 0.0).collect();
-    let dt = if dts.is_empty() { 0.01 } else { super::preprocess::median(&mut dts) };
+    let dt = trials.iter().map(sample_interval).filter(|d| d.is_finite() && *d > 0.0).fold(f64::INFINITY, f64::min);
+    let dt = if dt.is_finite() { dt } else { 0.01 };
     let half = trials.iter().map(|tr| tr.half_span_s).fold(0.0, f64::max);
     let span = trials.iter().map(|tr| tr.t.last().copied().unwrap_or(0.0) - tr.t.first().copied().unwrap_or(0.0)).fold(0.0, f64::max);
     let taus = catalogue::relaxation::grid((2.0 * dt).max(2.0 * half).max(0.1), 0.5 * span);
@@ -742,20 +800,30 @@ fn lambda_cv(d: &Design, cfg: &Config, parts: &[&Normal], support: Option<&[f64]
     // a column the inner folds' data hardly hold (the left-out step's own shape) is left at zero
     let own: Vec<f64> = (0..total.aty.len()).map(|a| total.ata[(a, a)]).collect();
     let support = Some(support.unwrap_or(&own));
-    let mut best = (f64::INFINITY, LAMBDAS[LAMBDAS.len() / 2]);
-    for &lambda in &LAMBDAS {
+    let rest: Vec<Normal> = parts.iter().map(|m| total.sub(m)).collect();
+    let cv_at = |lambda: f64| -> f64 {
         let mut cv = 0.0;
-        for m in parts {
-            match solve_normal(d, cfg, &total.sub(m), support, lambda) {
+        for (m, r) in parts.iter().zip(&rest) {
+            match solve_normal(d, cfg, r, support, lambda) {
                 Some((x, _)) => cv += m.sse(&x),
-                None => {
-                    cv = f64::INFINITY;
-                    break;
-                }
+                None => return f64::INFINITY,
             }
         }
+        cv
+    };
+    // the decades first, then the half decades either side of the best of them
+    let mut best = (f64::INFINITY, LAMBDAS[LAMBDAS.len() / 2]);
+    let mut best_i = LAMBDAS.len() / 2;
+    for i in (0..LAMBDAS.len()).step_by(2) {
+        let cv = cv_at(LAMBDAS[i]);
         if cv < best.0 {
-            best = (cv, lambda);
+            (best, best_i) = ((cv, LAMBDAS[i]), i);
+        }
+    }
+    for i in [best_i.wrapping_sub(1), best_i + 1].into_iter().filter(|&i| i < LAMBDAS.len()) {
+        let cv = cv_at(LAMBDAS[i]);
+        if cv < best.0 {
+            best = (cv, LAMBDAS[i]);
         }
     }
     (best.1, best.0)
