@@ -83,7 +83,7 @@ pub const CREEP_TAU_HOLD_SHARE: f64 = 0.2;
 /// first three samples after the onset, where the first-order curve reaches under a quarter).
 fn tau_describes_creep(g: &fit::StepData, f: &fit::StepFit, hold_s: f64) -> Option<String> {
     // a τ the data do not determine (a step small against the noise) describes nothing
-    if !(f.se_tau_s < 0.5 * f.tau_s) {
+    if f.se_tau_s.is_nan() || f.se_tau_s >= 0.5 * f.tau_s {
         return None;
     }
     if f.tau_s >= CREEP_TAU_HOLD_SHARE * hold_s {

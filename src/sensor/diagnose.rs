@@ -1172,7 +1172,7 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
         let tr = &trials[0];
         for &t in &tr.t {
             let k = unit_key(tr, t, blocks);
-            if k.1 > 0 && (k.1 - 1) % blocks > 0 {
+            if k.1 > 0 && !(k.1 - 1).is_multiple_of(blocks) {
                 *counts.entry(k).or_default() += 1;
             }
         }
@@ -1977,11 +1977,6 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) || e == Effect::Relaxation {
                 continue;
             }
-            // the spectrum holds creep and a second relaxation alike: it stands instead of them
-            let relaxing = |x: &Effect| matches!(x, Effect::Creep | Effect::SecondTimeConstant | Effect::Relaxation);
-            if relaxing(&e) && cur.effects.iter().any(|x| relaxing(x) && (*x == Effect::Relaxation || e == Effect::Relaxation)) {
-                continue;
-            }
             let cands: Vec<Config> = match e {
                 Effect::SecondTimeConstant => [Drive::Change, Drive::Size]
                     .iter()
@@ -1991,15 +1986,6 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                         c.effects.push(e);
                         c.tau2 = m * med_tau;
                         c.drive = drive;
-                        c
-                    })
-                    .collect(),
-                Effect::Relaxation => relax_candidates(&trials, actuator)
-                    .into_iter()
-                    .map(|rx| {
-                        let mut c = cur.clone();
-                        c.effects.push(e);
-                        c.relax = Some(rx);
                         c
                     })
                     .collect(),
@@ -2020,15 +2006,6 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             // shape parameters are chosen on the training fit (not on held-out data)
             let mut pick: Option<(Config, f64)> = None;
             for c in cands {
-                // the spectrum's load ramp is chosen by inner cross-validation, as its penalty
-                if e == Effect::Relaxation {
-                    if let Some(cv) = relax_cv(&d, &trials, &c, &hat) {
-                        if pick.as_ref().is_none_or(|p| cv < p.1) {
-                            pick = Some((c, cv));
-                        }
-                    }
-                    continue;
-                }
                 if let Some((b, xc)) = train_bic(&d, &trials, &c, &hat) {
                     // a response to the size of the change has one sign after loading and
                     // unloading alike; opposite signs are the change's own (signed) relaxation
