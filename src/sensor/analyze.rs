@@ -79,9 +79,9 @@ pub struct StepReport {
 pub const CREEP_TAU_HOLD_SHARE: f64 = 0.2;
 
 /// Why a step's fitted τ describes creep rather than the first-order part, if it does (a τ
-/// determined to better than ±50 %): τ of the order of the hold, or a jump the fitted τ cannot make (more than half the change within the
-/// first three samples after the onset, where the first-order curve reaches under a quarter).
-fn tau_describes_creep(g: &fit::StepData, f: &fit::StepFit, hold_s: f64) -> Option<String> {
+/// determined to better than ±50 %): τ of the order of the hold, or a step that lands within one
+/// sample (`jumps`, from [`fit::jump_time`]) while its fitted τ spans many samples.
+fn tau_describes_creep(f: &fit::StepFit, hold_s: f64, jumps: &[Option<f64>], dt: f64) -> Option<String> {
     // a τ the data do not determine (a step small against the noise) describes nothing
     if f.se_tau_s.is_nan() || f.se_tau_s >= 0.5 * f.tau_s {
         return None;
@@ -92,28 +92,17 @@ fn tau_describes_creep(g: &fit::StepData, f: &fit::StepFit, hold_s: f64) -> Opti
             f.tau_s, hold_s
         ));
     }
-    let (mut seen, mut model, mut n) = (0.0, 0.0, 0usize);
-    for (tr, tp) in g.trials.iter().zip(&f.trials) {
-        let after: Vec<usize> = (0..tr.t.len()).filter(|&j| tr.t[j] >= tp.t0).take(3).collect();
-        for j in after {
-            seen += (tr.v[j] - tp.v0) / f.k;
-            model += 1.0 - (-(tr.t[j] - tp.t0) / f.tau_s).exp();
-            n += 1;
-        }
-    }
-    if n == 0 || f.k == 0.0 {
-        return None;
-    }
-    let (seen, model) = (seen / n as f64, model / n as f64);
-    (seen > 0.5 && model < 0.25).then(|| {
+    (jumps.iter().any(Option::is_some) && f.tau_s > JUMP_SPAN_SAMPLES * dt).then(|| {
         format!(
-            "the response makes {:.0} % of the change within three samples of the onset, where a first-order step of τ = {:.3} s makes {:.0} %: the jump is faster than the fit's τ, which describes the slow creep after it",
-            100.0 * seen,
+            "the response jumps within one sample, where a first-order step of τ = {:.3} s would take {:.0} samples: the fit's τ describes the slow creep after the jump",
             f.tau_s,
-            100.0 * model
+            f.tau_s / dt
         )
     })
 }
+
+/// A fitted τ longer than this many sample intervals after a jump describes what follows it.
+const JUMP_SPAN_SAMPLES: f64 = 10.0;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Report {
@@ -249,15 +238,13 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
                     let q = f.trials.iter().position(|tp| tp.recording == rec.source)?;
                     // a jump's edge is the jump (the fitted curve's, slower, would take the
                     // samples after it for spikes)
-                    if let Some(tj) = sr.jumps.get(q).copied().flatten() {
-                        let dt = 1.0 / rec.sample_rate_hz();
-                        let from = (st.t_log - preprocess::HANDLING_WINDOW_S).max(if k > 0 { own[k - 1].t_log + 0.5 * (st.t_log - own[k - 1].t_log) } else { f64::NEG_INFINITY });
-                        return Some(EdgeStep { t0_s: tj, tau_s: 0.05 * dt, from_s: from, to_s: (st.t_log + preprocess::HANDLING_WINDOW_S).min(st.t_end) });
-                    }
-                    let t0 = f.trials[q].t0;
+                    let (t0, tau) = match sr.jumps.get(q).copied().flatten() {
+                        Some(tj) => (tj, fit::JUMP_TAU_SHARE / rec.sample_rate_hz()),
+                        None => (f.trials[q].t0, f.tau_s),
+                    };
                     let from = (st.t_log - preprocess::HANDLING_WINDOW_S).max(if k > 0 { own[k - 1].t_log + 0.5 * (st.t_log - own[k - 1].t_log) } else { f64::NEG_INFINITY });
                     let to = (st.t_log + preprocess::HANDLING_WINDOW_S).min(st.t_end);
-                    Some(EdgeStep { t0_s: t0, tau_s: f.tau_s, from_s: from, to_s: to })
+                    Some(EdgeStep { t0_s: t0, tau_s: tau, from_s: from, to_s: to })
                 })
                 .collect();
             let ceiling = saturation::ceiling(&rec.response);
@@ -308,8 +295,9 @@ fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepRep
         };
         let paper = if opts.method != Method::Lsq { fit::paper(g, weight.max(1e-12), opts.paper_grid) } else { None };
         let hold_s = g.step.t_end - g.step.t_log;
-        let creep = lsq.as_ref().and_then(|f| tau_describes_creep(g, f, hold_s));
-        let jumps = lsq.as_ref().map(|f| g.trials.iter().zip(&f.trials).map(|(tr, tp)| fit::jump_time(tr, tp, f)).collect()).unwrap_or_default();
+        let jumps: Vec<Option<f64>> = lsq.as_ref().map(|f| g.trials.iter().zip(&f.trials).map(|(tr, tp)| fit::jump_time(tr, tp, f)).collect()).unwrap_or_default();
+        let dt = g.trials.iter().filter_map(fit::sample_interval).fold(f64::INFINITY, f64::min);
+        let creep = lsq.as_ref().and_then(|f| tau_describes_creep(f, hold_s, &jumps, dt));
         steps.push(StepReport {
             jumps,
             hold_s,

@@ -891,10 +891,7 @@ fn at_jump(tr: &Trial, t: f64) -> bool {
     tr.segs.iter().any(|s| s.tau < dt && t >= s.t0 - dt && t <= s.t0 + 1.5 * dt)
 }
 
-/// A jump's time constant, in sample intervals: settled at the next sample.
-const JUMP_TAU_SHARE: f64 = 0.05;
-
-/// A step faster than one sample (its τ set by [`JUMP_TAU_SHARE`]).
+/// A step faster than one sample (its τ set by [`super::fit::JUMP_TAU_SHARE`]).
 fn is_jump(tr: &Trial, sg: &Seg) -> bool {
     sg.tau < sample_interval(tr)
 }
@@ -914,19 +911,18 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Opti
         let series = &prep.series[ri];
         let mut segs = Vec::new();
         for st in &prep.steps[ri] {
-            let fit = report.steps.iter().find(|s| s.phase == st.phase && s.index == st.index).and_then(|s| s.lsq.as_ref());
-            let Some(f) = fit else { continue };
-            let sr = report.steps.iter().find(|s| s.phase == st.phase && s.index == st.index);
+            let Some(key) = report.steps.iter().position(|s| s.phase == st.phase && s.index == st.index) else { continue };
+            let sr = &report.steps[key];
+            let Some(f) = sr.lsq.as_ref() else { continue };
             let q = f.trials.iter().position(|tp| tp.recording == rec.source);
             let mut t0 = q.map(|q| f.trials[q].t0).unwrap_or(st.t_log);
             let mut tau = f.tau_s;
             // a jump within one sample (fit::jump_time) is modelled as one; the creep or
             // relaxation after it is the diagnosis's
-            if let Some(tj) = q.and_then(|q| sr?.jumps.get(q).copied().flatten()) {
+            if let Some(tj) = q.and_then(|q| sr.jumps.get(q).copied().flatten()) {
                 t0 = tj;
-                tau = JUMP_TAU_SHARE / rec.sample_rate_hz();
+                tau = super::fit::JUMP_TAU_SHARE / rec.sample_rate_hz();
             }
-            let key = report.steps.iter().position(|s| s.phase == st.phase && s.index == st.index).unwrap_or(0);
             segs.push(Seg { key, t0, load: st.after, prev: st.before, tau, phase: st.phase, t_log: st.t_log, sim: None });
         }
         let keep: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j]).collect();
@@ -1379,6 +1375,29 @@ fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     Some(*again)
 }
 
+/// Where a term's signature shows in the residuals of the model before it entered (the whiteness
+/// test's windows when the signature alone does not reach its threshold).
+#[allow(clippy::too_many_arguments)]
+fn entry_windows(e: Effect, d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &Hat, clip: Option<f64>, report: &Report) -> Vec<Window> {
+    let windows = signature(e, &hold_data(d, trials, x, cfg, hat), trials, clip, report);
+    if windows.is_empty() {
+        locate(d, trials, x, cfg, hat)
+    } else {
+        windows
+    }
+}
+
+/// A finding's confidence from its held-out gain and its ΔBIC.
+fn confidence(dbic: f64, gain: f64) -> &'static str {
+    if dbic < -100.0 && gain > 0.05 {
+        "high"
+    } else if dbic < -30.0 {
+        "medium"
+    } else {
+        "low"
+    }
+}
+
 /// The diagnosis; with `baseline_only`, only the baseline's score.
 fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool, baseline_only: bool) -> Option<Outcome> {
     let (report, prep) = analyze::analyze(recs, opts);
@@ -1598,24 +1617,13 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         if let Some(dc) = decisions.iter_mut().rev().find(|dc| dc.step == round && dc.candidate == e.name()) {
             dc.accepted = true;
         }
-        // where its signature shows in the residuals of the model before it entered (the
-        // whiteness test's windows when the signature alone does not reach its threshold)
-        let mut windows = signature(e, &hold_data(&d, &trials, &cur_x, &cur, &hat), &trials, clip, &report);
-        if windows.is_empty() {
-            windows = locate(&d, &trials, &cur_x, &cur, &hat);
-        }
+        let windows = entry_windows(e, &d, &trials, &cur_x, &cur, &hat, clip, &report);
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
         let dbic = s.bic - cur_score.bic;
         let params = term_params(&d, &c, &x, e, &hat);
         findings.push(Finding {
             effect: e.name(),
-            confidence: if dbic < -100.0 && gain > 0.05 {
-                "high"
-            } else if dbic < -30.0 {
-                "medium"
-            } else {
-                "low"
-            },
+            confidence: confidence(dbic, gain),
             explanation: if e == Effect::SecondTimeConstant { c.drive.explanation().to_string() } else { e.explanation().to_string() },
             windows,
             term: Term { name: format!("{}_term", e.name()), params },
@@ -1689,7 +1697,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     if !d.prior {
         let step = decisions.last().map(|d| d.step + 1).unwrap_or(0);
         if let Some((c, s, x, dec)) = try_spectrum(&d, &trials, &cur, &cur_score, &hat, actuator, step) {
-            let accepted = dec.accepted;
+            let (accepted, dec_gain) = (dec.accepted, dec.gain);
             decisions.push(dec);
             if accepted {
                 // named after the exact form it replaces that gained most, else the one that
@@ -1704,15 +1712,12 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                     }),
                     None => round0_exact.clone(),
                 };
-                let mut windows = signature(Effect::Relaxation, &hold_data(&d, &trials, &cur_x, &cur, &hat), &trials, clip, &report);
-                if windows.is_empty() {
-                    windows = locate(&d, &trials, &cur_x, &cur, &hat);
-                }
+                let windows = entry_windows(Effect::Relaxation, &d, &trials, &cur_x, &cur, &hat, clip, &report);
                 findings.retain(|f| f.effect != Effect::Creep.name() && f.effect != Effect::SecondTimeConstant.name());
                 let dbic = s.bic - cur_score.bic;
                 findings.push(Finding {
                     effect: Effect::Relaxation.name(),
-                    confidence: if dbic < -100.0 { "high" } else { "medium" },
+                    confidence: confidence(dbic, dec_gain),
                     explanation: Effect::Relaxation.explanation().to_string(),
                     windows,
                     term: Term { name: "relaxation_term".into(), params: term_params(&d, &c, &x, Effect::Relaxation, &hat) },

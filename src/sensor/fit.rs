@@ -138,6 +138,15 @@ impl StepFit {
     }
 }
 
+/// A jump's time constant, in sample intervals: settled at the next sample.
+pub const JUMP_TAU_SHARE: f64 = 0.05;
+
+/// A trial window's mean sample interval (None with fewer than two samples).
+pub fn sample_interval(tr: &Trial) -> Option<f64> {
+    let n = tr.t.len();
+    (n >= 2).then(|| (tr.t[n - 1] - tr.t[0]) / (n - 1) as f64)
+}
+
 /// The farthest a fitted curve's onset may lie before the detected one (at least 5 samples).
 pub const ONSET_LEAD_S: f64 = 2.0;
 
@@ -153,7 +162,7 @@ pub fn jump_time(tr: &Trial, tp: &TrialParams, f: &StepFit) -> Option<f64> {
     if n < 3 || f.k == 0.0 {
         return None;
     }
-    let dt = (tr.t[n - 1] - tr.t[0]) / (n - 1) as f64;
+    let dt = sample_interval(tr)?;
     let near: Vec<usize> = (0..n).filter(|&j| (tr.t[j] - tr.t_on).abs() <= 3.0 * dt + 1e-9).collect();
     let (a, b) = near.windows(2).filter(|w| w[1] == w[0] + 1).map(|w| (w[0], w[1])).max_by(|x, y| (tr.v[x.1] - tr.v[x.0]).abs().total_cmp(&(tr.v[y.1] - tr.v[y.0]).abs()))?;
     // the leap must stand out of the noise of a difference of two samples (5σ), or a small

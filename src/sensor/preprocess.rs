@@ -219,7 +219,7 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
         }
         let end = j - quiet;
         let (s, e) = (t[i], t[(end).min(n - 1)]);
-        if e - s <= opts.max_spike_s && !within_a_jump(t, v, i, end, f64::from(thr), dt) {
+        if e - s <= opts.max_spike_s {
             let pad = samples(0.05);
             for k in i.saturating_sub(pad)..(end + pad).min(n) {
                 mask[k] = false;
@@ -229,28 +229,6 @@ pub fn spikes(t: &[f64], v: &[f64], opts: &Options) -> (Vec<SpikeWindow>, Vec<bo
         i = j;
     }
     (windows, mask)
-}
-
-/// Below this sampling rate a spike is one or two samples, and the running median cannot tell it
-/// from the edge of a jump (a load landing within a sample).
-pub const COARSE_RATE_HZ: f64 = 20.0;
-
-/// At a coarse rate, whether the flagged samples i..end stay between the levels before and after
-/// them (within the threshold): the edge of a jump from one level to the other, not a spike,
-/// which leaves that range and comes back.
-fn within_a_jump(t: &[f64], v: &[f64], i: usize, end: usize, thr: f64, dt: f64) -> bool {
-    if dt <= 1.0 / COARSE_RATE_HZ || end <= i {
-        return false;
-    }
-    let side = |a: usize, b: usize| -> Option<f64> {
-        let mut x: Vec<f64> = v[a.min(v.len())..b.min(v.len())].to_vec();
-        (!x.is_empty()).then(|| median(&mut x))
-    };
-    let k = ((0.5 / dt).round() as usize).max(2);
-    let (Some(before), Some(after)) = (side(i.saturating_sub(k), i), side(end + 1, end + 1 + k)) else { return false };
-    let (lo, hi) = (before.min(after) - thr, before.max(after) + thr);
-    let _ = t;
-    (hi - lo) > 4.0 * thr && v[i..=end.min(v.len() - 1)].iter().all(|&x| x >= lo && x <= hi)
 }
 
 /// Spike removal, then the block mean filter (a block holding a spike sample is kept only from its
