@@ -138,6 +138,8 @@ fn main() {
     // TIPFORGE_DISCOVERY_CELLS: stop after the single-effect cells; TIPFORGE_DISCOVERY_VERBOSE: each
     // case's floor, baseline and improved error to the truth (mV) on stderr; TIPFORGE_DISCOVERY_SEED: first seed (reports use ≥ 50 000; see the header for the tuning seeds)
     let only: Vec<String> = std::env::var("TIPFORGE_DISCOVERY_ONLY").map(|v| v.split(',').map(|x| x.trim().to_string()).collect()).unwrap_or_default();
+    // TIPFORGE_DISCOVERY_FROM_VARIATION=5: only the variations from the sixth on (their seeds as in the full run)
+    let variations_only = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").is_ok();
     let effects: Vec<E> = [E::Creep, E::Hyst, E::Second, E::Drift, E::Sat, E::Spikes].into_iter().filter(|e| only.is_empty() || only.iter().any(|o| o == e.name())).collect();
     let seed0: u64 = std::env::var("TIPFORGE_DISCOVERY_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(50_000);
     println!("# Discovery benchmark ({n} cases × 3 trials per cell; first seed {seed0}; noise σ = {sigma} V)\n");
@@ -149,7 +151,7 @@ fn main() {
     let pairs_only = std::env::var("TIPFORGE_DISCOVERY_PAIRS").is_ok();
     // TIPFORGE_DISCOVERY_LEVELS=30,10: other magnitudes (in σ) than the 3, 1 and 0.3
     let levels: Vec<f64> = std::env::var("TIPFORGE_DISCOVERY_LEVELS").map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect()).unwrap_or_else(|_| vec![3.0, 1.0, 0.3]);
-    for &e in effects.iter().filter(|_| !pairs_only) {
+    for &e in effects.iter().filter(|_| !pairs_only && !variations_only) {
         for &k in &levels {
             let m = magnitude_for(&s0, &p0, e, k * sigma, top);
             let mut s = s0.clone();
@@ -177,12 +179,16 @@ fn main() {
         // quick look while tuning: the single-effect cells only
         return;
     }
+    if variations_only {
+        // the seeds the full run reaches the variations with (cells, nulls, 15 pairs)
+        seed = seed0 + 10 * n * (6 * levels.len() as u64 + 3 + 15);
+    }
     // null cases
     let mut false_any = 0;
     let mut ratios = Vec::new();
     let nn = 3 * n;
     for _ in 0..nn {
-        if pairs_only {
+        if pairs_only || variations_only {
             break;
         }
         let o = run(&s0, &p0, seed);
@@ -192,7 +198,7 @@ fn main() {
         }
         ratios.push(o.ratio);
     }
-    if !pairs_only {
+    if !pairs_only && !variations_only {
         println!(
             "\nnull cases: {false_any} of {nn} with any finding ({:.1} %); median improved/baseline RMSE to truth {:.3}",
             100.0 * false_any as f64 / nn as f64,
@@ -209,7 +215,7 @@ fn main() {
         .collect();
     let mut pair_conf: Vec<String> = Vec::new();
     let pairs_seed0 = seed0 + 10 * (all.len() as u64 * 3 * n + 3 * n);
-    for (k, (a, b)) in pairs {
+    for (k, (a, b)) in pairs.into_iter().filter(|_| !variations_only) {
         if pairs_only {
             seed = pairs_seed0 + 10 * n * k as u64;
         }
@@ -246,8 +252,31 @@ fn main() {
         ("noise ×2", Box::new(|s, _| s.noise_v *= 2.0)),
         ("sample rate 50 Hz", Box::new(|s, _| s.circuit.sample_rate_hz = 50.0)),
         ("logging offset 0.8 s", Box::new(|_, p| p.logging_offset_s = 0.8)),
+        // the lab's nuisances (the guide's: the hand, temperature, how long the sensor rested)
+        (
+            "hand touch 0.5 s with a 12 % press",
+            Box::new(|_, p| {
+                p.touch_s = 0.5;
+                p.press_fraction = 0.12
+            }),
+        ),
+        ("trial nuisances: gain ±3 %, rest 2σ, AR noise", Box::new(|s, _| trial_nuisances(s))),
+        (
+            "touch + trial nuisances",
+            Box::new(|s, p| {
+                trial_nuisances(s);
+                p.touch_s = 0.5;
+                p.press_fraction = 0.12
+            }),
+        ),
     ];
-    for (label, f) in variations {
+    let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
+    for (vi, (label, f)) in variations.into_iter().enumerate() {
+        if vi < from {
+            // the same seeds as in the full run
+            seed += 10 * n * (effects.len() as u64 + 1);
+            continue;
+        }
         let (mut sv, mut pv) = (s0.clone(), p0.clone());
         f(&mut sv, &mut pv);
         let topv = sv.v_eq((pv.weights_g.iter().sum::<f64>() + 20.0) / 1000.0 * 9.80665);
@@ -321,4 +350,14 @@ fn speed() {
         println!("| {label} | {samples} | {:.2} |", times[2]);
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The trials' nuisances of the "trial nuisances" variations: gain ±3 % (1 s.d.), a rest
+/// relaxation up to 2σ with τ 100 s, and a quarter of the noise variance AR(1) with ρ 0.95.
+fn trial_nuisances(s: &mut SensorParams) {
+    s.nuisance.gain_jitter = 0.03;
+    s.nuisance.rest_v = 2.0 * s.noise_v;
+    s.nuisance.rest_tau_s = 100.0;
+    s.nuisance.noise_ar_rho = 0.95;
+    s.nuisance.noise_ar_share = 0.25;
 }

@@ -100,7 +100,12 @@ fn files_to_build(opts: &Options, problems: &mut Vec<Problem>) -> Result<(Vec<Pa
             if path.is_file() {
                 files.push(path);
             } else {
-                problems.push(Problem::new(arg.clone(), "PART", arg, format!("no such file: {arg}; give a parameter file's path, or the stem of a file in {}", opts.params_dir.display())));
+                problems.push(Problem::new(
+                    arg.clone(),
+                    "PART",
+                    arg,
+                    format!("no such file: {arg}; give a parameter file's path, or the stem of a file in {}", opts.params_dir.display()),
+                ));
             }
             continue;
         }
@@ -230,7 +235,14 @@ pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool, slice: bool) -> Res
                 "print".into(),
                 serde_json::json!({"time_s": pr.time_s, "filament_g": pr.filament_g, "layers": pr.layers, "profile": crate::slicer::PROFILE_NAME, "slicer": "PrusaSlicer"}),
             );
-            out.notes.push(format!("{}: prints in {}, {:.2} g of PLA, {} layers (PrusaSlicer, {})", part.name, crate::slicer::hms(pr.time_s), pr.filament_g, pr.layers, crate::slicer::PROFILE_NAME));
+            out.notes.push(format!(
+                "{}: prints in {}, {:.2} g of PLA, {} layers (PrusaSlicer, {})",
+                part.name,
+                crate::slicer::hms(pr.time_s),
+                pr.filament_g,
+                pr.layers,
+                crate::slicer::PROFILE_NAME
+            ));
         }
         out.entries.push((part.name.clone(), entry));
         out.summaries.push(Summary { name: part.name.clone(), triangles: part.mesh.triangles.len(), volume_mm3: part.volume_mm3(), mass_g: part.mass_g(), millis: per_part_ms });

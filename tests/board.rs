@@ -26,7 +26,13 @@ fn sizes(out: &Path) -> (f64, f64, f64, f64, f64) {
     let seat = &m["parts"]["fingertip-1s"]["features"]["seats"][0];
     let rig = &m["parts"]["rig-base"]["features"];
     let dome = &m["molds"]["mold-1s"]["domes_assembled"][0];
-    (f(&seat["seat_diameter_mm"]), f(&rig["seat_diameter_mm"]), f(&m["parts"]["rig-plunger"]["features"]["face_diameter_mm"]), f(&seat["dome_diameter_mm"]), f(&dome["dome_diameter_mm"]))
+    (
+        f(&seat["seat_diameter_mm"]),
+        f(&rig["seat_diameter_mm"]),
+        f(&m["parts"]["rig-plunger"]["features"]["face_diameter_mm"]),
+        f(&seat["dome_diameter_mm"]),
+        f(&dome["dome_diameter_mm"]),
+    )
 }
 
 #[test]
@@ -40,7 +46,10 @@ fn every_part_takes_the_sensor_from_the_one_board_file() {
     assert!((face - 8.0).abs() < 1e-9 && (tip_dome - 8.0).abs() < 1e-9 && (mold_dome - 8.0).abs() < 1e-9);
     // a different sensor: every part follows from the one file
     let board = std::fs::read_to_string(d.join("params/fsr-8mm.toml")).unwrap();
-    let other = board.replace("board_diameter_mm = 8.6", "board_diameter_mm = 9.2").replace("sensing_diameter_mm = 8.0", "sensing_diameter_mm = 7.0").replace("dome_diameter_mm = 8.0", "dome_diameter_mm = 7.5");
+    let other = board
+        .replace("board_diameter_mm = 8.6", "board_diameter_mm = 9.2")
+        .replace("sensing_diameter_mm = 8.0", "sensing_diameter_mm = 7.0")
+        .replace("dome_diameter_mm = 8.0", "dome_diameter_mm = 7.5");
     assert_ne!(other, board);
     std::fs::write(d.join("params/fsr-8mm.toml"), other).unwrap();
     let out2 = d.join("out2");

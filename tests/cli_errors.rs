@@ -421,5 +421,8 @@ fn a_cover_over_a_screw_recess_is_refused() {
     std::fs::copy("params/mold-2s.toml", d.join("params/mold-2s.toml")).unwrap();
     let (code, text) = run(&d);
     assert_eq!(code, 2, "{text}");
-    assert!(text.contains("mold-2s.toml:10: cover.from_tip_mm") && text.contains("runs over the head recess of the fingertip's hole 0") && text.contains("raise the hole to z ≥ 1.30"), "{text}");
+    assert!(
+        text.contains("mold-2s.toml:10: cover.from_tip_mm") && text.contains("runs over the head recess of the fingertip's hole 0") && text.contains("raise the hole to z ≥ 1.30"),
+        "{text}"
+    );
 }

@@ -219,7 +219,11 @@ fn edge_misfit_of_a_large_second_relaxation_is_not_excluded_as_handling_spikes()
     // excluded such windows (improved error to the truth 0.52–0.63 × the baseline's); with it,
     // those that keep them reach ~0.28 ×. Where exclusion lowers the held-out error a little, the
     // windows are still excluded (a known limit, BENCHMARKS.md).
+    // Since the edge detector fits a touch (the load lowered over up to 1 s) and subtracts what the
+    // placements share, most of these misfits are not flagged at all (4 of 6; 1 kept, 1 still
+    // excluded): the cases that take the misfit for handling spikes must stay at most one.
     let mut kept_cases = 0;
+    let mut taken_for_spikes = 0;
     for seed in [71_000u64, 71_100, 71_200, 71_300, 71_400, 71_500] {
         let set = move |s: &mut SensorParams| s.effects.second_fraction = 0.22;
         let d = diagnose(&case(seed, set), &Default::default()).unwrap();
@@ -228,6 +232,7 @@ fn edge_misfit_of_a_large_second_relaxation_is_not_excluded_as_handling_spikes()
         let kept = d.located.iter().filter(|w| w.test == "handling_spikes" && w.statistic.contains("not excluded")).count();
         match d.findings.iter().find(|f| f.effect == "handling_spikes") {
             Some(f) => {
+                taken_for_spikes += 1;
                 assert_eq!(kept, 0, "seed {seed}");
                 assert!(f.heldout_rmse_after <= f.heldout_rmse_before, "seed {seed}: exclusion kept though it worsened held-out prediction");
             }
@@ -240,7 +245,7 @@ fn edge_misfit_of_a_large_second_relaxation_is_not_excluded_as_handling_spikes()
         }
         assert!(d.final_.heldout_rmse < 0.5 * d.baseline.heldout_rmse, "seed {seed}");
     }
-    assert!(kept_cases >= 2, "edge misfits kept in {kept_cases} of 6 cases");
+    assert!(taken_for_spikes <= 1, "edge misfits taken for handling spikes in {taken_for_spikes} of 6 cases ({kept_cases} kept)");
 }
 
 /// Issue 17, defect 6: recordings made with a preload the simulator was not given. The mismatch is

@@ -66,7 +66,10 @@ fn the_default_hand_builds_five_fingertips_and_a_plate_inside_the_bed() {
 fn overrides_are_checked_by_the_fingertip_rules_and_named_on_the_hand_file() {
     let d = dir("bad");
     let hand = std::fs::read_to_string(d.join("params/hand.toml")).unwrap();
-    let bad = hand.replace("length_mm = 25.0", "length_mm = -25.0").replace("bed_mm = [250.0, 210.0]", "bed_mm = [60.0, 30.0]").replace("[middle]\nfingertip = \"fingertip-1s.toml\"", "[middle]\nfingertip = \"nowhere.toml\"");
+    let bad = hand
+        .replace("length_mm = 25.0", "length_mm = -25.0")
+        .replace("bed_mm = [250.0, 210.0]", "bed_mm = [60.0, 30.0]")
+        .replace("[middle]\nfingertip = \"fingertip-1s.toml\"", "[middle]\nfingertip = \"nowhere.toml\"");
     assert_ne!(bad, hand);
     std::fs::write(d.join("params/hand.toml"), &bad).unwrap();
     let (code, text) = build(&d);

@@ -68,7 +68,13 @@ fn holes_below_the_smallest_printable_feature_are_refused_with_their_line() {
         let t: String = fingertip_text()
             .lines()
             .filter(|l| !l.starts_with("head_clearance_mm") && !l.starts_with("head_sink_mm"))
-            .map(|l| if l.starts_with("screw = ") { "hole_diameter_mm = 2.4\nhead = \"counterbore\"\nhead_diameter_mm = 4.6\nhead_depth_mm = 1.7\n".to_string() } else { format!("{l}\n") })
+            .map(|l| {
+                if l.starts_with("screw = ") {
+                    "hole_diameter_mm = 2.4\nhead = \"counterbore\"\nhead_diameter_mm = 4.6\nhead_depth_mm = 1.7\n".to_string()
+                } else {
+                    format!("{l}\n")
+                }
+            })
             .collect();
         let line = t.lines().position(|l| l.starts_with("hole_diameter_mm")).expect("fixture has hole_diameter_mm") + 1;
         let t: String = t.lines().map(|l| if l.starts_with("hole_diameter_mm") { format!("hole_diameter_mm = {tiny}\n") } else { format!("{l}\n") }).collect();
@@ -202,15 +208,7 @@ fn a_recording_too_short_to_leave_steps_out_is_scored_inside_its_holds() {
 fn progress_shows_on_a_terminal_only() {
     let d = dir("progress");
     let args = |name: &str| {
-        vec![
-            "simulate".to_string(),
-            "--protocol".into(),
-            "params/protocol-1000g.toml".into(),
-            "--trials".into(),
-            "200".into(),
-            "-o".into(),
-            d.join(name).display().to_string(),
-        ]
+        vec!["simulate".to_string(), "--protocol".into(), "params/protocol-1000g.toml".into(), "--trials".into(), "200".into(), "-o".into(), d.join(name).display().to_string()]
     };
     let o = Command::new(env!("CARGO_BIN_EXE_tipforge")).args(args("piped.csv")).output().unwrap();
     assert_eq!(o.status.code(), Some(0));

@@ -212,4 +212,3 @@ mod tests {
         assert!(check(&cast).is_none(), "cast parts are not printed");
     }
 }
-

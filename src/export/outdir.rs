@@ -90,10 +90,8 @@ pub fn commit_run(lock: &OutLock, mut files: Vec<(PathBuf, Vec<u8>)>) -> Result<
         .map(|m| m.files.into_iter().map(|f| f.path).collect())
         .unwrap_or_default();
     // only plain relative paths inside the folder are ever removed
-    let stale: Vec<PathBuf> = previous
-        .into_iter()
-        .filter(|p| p.components().all(|c| matches!(c, std::path::Component::Normal(_))) && !listed.iter().any(|f| &f.path == p))
-        .collect();
+    let stale: Vec<PathBuf> =
+        previous.into_iter().filter(|p| p.components().all(|c| matches!(c, std::path::Component::Normal(_))) && !listed.iter().any(|f| &f.path == p)).collect();
     let mut text = serde_json::to_string_pretty(&RunManifest { schema: "tipforge.run/1".into(), files: listed }).expect("run manifest json");
     text.push('\n');
     files.push((dir.join(RUN_MANIFEST), text.into_bytes()));
@@ -154,9 +152,10 @@ fn tmp_name(path: &Path) -> PathBuf {
 pub fn commit(lock: &OutLock, files: &[(PathBuf, Vec<u8>)], removes: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let dir = lock.dir();
     let rel = |p: &Path| -> Result<PathBuf> {
-        p.strip_prefix(dir).map(Path::to_path_buf).or_else(|_| if dir == Path::new(".") { Ok(p.to_path_buf()) } else { Err(()) }).map_err(|_| {
-            Error::io(p, std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("outside the locked output folder {}", dir.display())))
-        })
+        p.strip_prefix(dir)
+            .map(Path::to_path_buf)
+            .or_else(|_| if dir == Path::new(".") { Ok(p.to_path_buf()) } else { Err(()) })
+            .map_err(|_| Error::io(p, std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("outside the locked output folder {}", dir.display()))))
     };
     let mut renames = Vec::new();
     let mut temps = Vec::new();

@@ -32,7 +32,10 @@ pub fn load(src: &crate::params::SourceFile, default_name: &str, dir: &std::path
         problems.push(src.problem(
             "bed_mm",
             format!("[{}, {}]", p.bed_mm[0], p.bed_mm[1]),
-            format!("the five fingertips with {} mm between them need a bed of at least {:.1} × {:.1} mm: give a larger bed or a smaller spacing_mm", p.spacing_mm, need[0], need[1]),
+            format!(
+                "the five fingertips with {} mm between them need a bed of at least {:.1} × {:.1} mm: give a larger bed or a smaller spacing_mm",
+                p.spacing_mm, need[0], need[1]
+            ),
         ));
     }
     crate::params::finish(Some(p), problems)
@@ -76,10 +79,7 @@ pub fn build(p: &HandParams) -> Result<HandBuild> {
     for ((part, (lo, _)), (slot, f)) in parts.iter().zip(&sizes).zip(slots.iter().zip(&p.fingers)) {
         let d = [slot[0] - lo[0], slot[1] - lo[1], -lo[2]];
         objects.push(AssemblyObject::part(part.name.clone(), part.mesh.map(|v| [v[0] + d[0], v[1] + d[1], v[2] + d[2]])));
-        layout.insert(
-            f.finger.to_string(),
-            json!({"part": part.name, "fingertip": f.fingertip_file, "overridden": f.overridden, "plate_offset_mm": d}),
-        );
+        layout.insert(f.finger.to_string(), json!({"part": part.name, "fingertip": f.fingertip_file, "overridden": f.overridden, "plate_offset_mm": d}));
     }
     let plate = Assembly { name: format!("{}-plate", p.name), parts: objects };
     let mut manifest = Map::new();
@@ -95,7 +95,11 @@ pub fn build(p: &HandParams) -> Result<HandBuild> {
         parts.len(),
         p.bed_mm[0],
         p.bed_mm[1],
-        p.fingers.iter().map(|f| format!("{} = {}{}", f.finger, f.fingertip_file, if f.overridden.is_empty() { String::new() } else { format!(" with {}", f.overridden.join(", ")) })).collect::<Vec<_>>().join("; ")
+        p.fingers
+            .iter()
+            .map(|f| format!("{} = {}{}", f.finger, f.fingertip_file, if f.overridden.is_empty() { String::new() } else { format!(" with {}", f.overridden.join(", ")) }))
+            .collect::<Vec<_>>()
+            .join("; ")
     )];
     Ok(HandBuild { parts, assemblies: vec![plate], manifest, notes })
 }

@@ -218,11 +218,7 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
         z_parting: ze,
         z_top,
         sprue: (sprue_xy, rs),
-        vents: vent_xy
-            .iter()
-            .map(|v| Exit { xy: *v, r: rv, from_z: ze })
-            .chain(pockets.iter().map(|q| Exit { xy: [q[0], q[1]], r: rv, from_z: q[2] }))
-            .collect(),
+        vents: vent_xy.iter().map(|v| Exit { xy: *v, r: rv, from_z: ze }).chain(pockets.iter().map(|q| Exit { xy: [q[0], q[1]], r: rv, from_z: q[2] })).collect(),
         key_holes,
         unvented_pockets: unvented,
         pins,

@@ -168,7 +168,8 @@ mod tests {
         let vent = Exit { xy: [12.0, 5.0], r: 0.4, from_z: -0.5 };
         assert!(pockets(&cav, 0.0, &[vent]).is_empty());
         // a ceiling that rises all the way to the rim traps nothing
-        let ramp = Solid::hull(&[[0.0, 0.0, -3.0], [20.0, 0.0, -3.0], [0.0, 10.0, -3.0], [20.0, 10.0, -3.0], [0.0, 0.0, 0.0], [0.0, 10.0, 0.0], [20.0, 0.0, -1.0], [20.0, 10.0, -1.0]]);
+        let ramp =
+            Solid::hull(&[[0.0, 0.0, -3.0], [20.0, 0.0, -3.0], [0.0, 10.0, -3.0], [20.0, 10.0, -3.0], [0.0, 0.0, 0.0], [0.0, 10.0, 0.0], [20.0, 0.0, -1.0], [20.0, 10.0, -1.0]]);
         assert!(pockets(&ramp.to_mesh(), 0.0, &[]).is_empty());
     }
 }

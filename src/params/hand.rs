@@ -59,7 +59,9 @@ impl HandParams {
         let name = super::part_name(src, default_name, &mut c.problems);
         let bed = match src.value.get("bed_mm") {
             None => Some([250.0, 210.0]),
-            Some(toml::Value::Array(a)) if a.len() == 2 && a.iter().all(|v| v.as_float().or(v.as_integer().map(|i| i as f64)).is_some_and(|x| x.is_finite() && x > 0.0 && x <= 2000.0)) => {
+            Some(toml::Value::Array(a))
+                if a.len() == 2 && a.iter().all(|v| v.as_float().or(v.as_integer().map(|i| i as f64)).is_some_and(|x| x.is_finite() && x > 0.0 && x <= 2000.0)) =>
+            {
                 let f = |v: &toml::Value| v.as_float().or(v.as_integer().map(|i| i as f64)).unwrap_or(0.0);
                 Some([f(&a[0]), f(&a[1])])
             }

@@ -9,7 +9,6 @@ use super::{fields_of, Collector, Schema, SourceFile};
 use crate::error::Result;
 use serde::Deserialize;
 
-
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawBase {
@@ -53,10 +52,8 @@ pub struct RawRigPrint {
 static BASE_SCHEMA: Schema = Schema { fields: fields_of::<RawBase>, tables: &[] };
 static PLUNGER_SCHEMA: Schema = Schema { fields: fields_of::<RawPlunger>, tables: &[] };
 static RIG_PRINT_SCHEMA: Schema = Schema { fields: fields_of::<RawRigPrint>, tables: &[] };
-pub static SCHEMA: Schema = Schema {
-    fields: || &["kind", "name", "sensor_board"],
-    tables: &[("base", false, &BASE_SCHEMA), ("plunger", false, &PLUNGER_SCHEMA), ("print", false, &RIG_PRINT_SCHEMA)],
-};
+pub static SCHEMA: Schema =
+    Schema { fields: || &["kind", "name", "sensor_board"], tables: &[("base", false, &BASE_SCHEMA), ("plunger", false, &PLUNGER_SCHEMA), ("print", false, &RIG_PRINT_SCHEMA)] };
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct RigSensor {
@@ -248,7 +245,11 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
     }
     if let (Some(st), Some(dh)) = (stop, dome_h) {
         if st >= dh {
-            let why = if p.stop_gap_mm.is_some() { String::new() } else { " (computed: the dome's compression under plunger.max_load_g plus stop_margin_mm; the dome is too soft for this load)".to_string() };
+            let why = if p.stop_gap_mm.is_some() {
+                String::new()
+            } else {
+                " (computed: the dome's compression under plunger.max_load_g plus stop_margin_mm; the dome is too soft for this load)".to_string()
+            };
             c.push("plunger.stop_gap_mm", st, format!("the overtravel stop must engage before the dome is flattened: less than the dome height {dh} mm{why}"));
         }
     }

@@ -39,6 +39,21 @@ pub struct Effects {
     pub spike_s: f64,
 }
 
+/// What differs between the trials of one data set and is not sensor physics (all 0 = off): the
+/// sensor's gain (temperature, the hand), a relaxation left from before the trial (how long the
+/// sensor rested), and noise with memory (an AR(1) part of the noise variance).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Nuisance {
+    /// Standard deviation of the trial's conductance gain (a fraction; 0.03 = ±3 %).
+    pub gain_jitter: f64,
+    /// Largest amplitude of the rest relaxation (V; sign and size drawn per trial) and its time constant.
+    pub rest_v: f64,
+    pub rest_tau_s: f64,
+    /// AR(1) coefficient of the correlated part of the noise and that part's share of the variance.
+    pub noise_ar_rho: f64,
+    pub noise_ar_share: f64,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct SensorParams {
     pub circuit: Circuit,
@@ -57,6 +72,7 @@ pub struct SensorParams {
     pub cover_relax_fraction: f64,
     pub cover_tau_s: f64,
     pub effects: Effects,
+    pub nuisance: Nuisance,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -67,6 +83,12 @@ pub struct ProtocolParams {
     pub baseline_s: f64,
     pub logging_offset_s: f64,
     pub logging_jitter_s: f64,
+    /// A hand's touch: the weight's force arrives (or leaves) over about this long, ending where
+    /// it lands (each placement draws 0.5–1.5 × it); 0 = at once.
+    pub touch_s: f64,
+    /// The hand's extra press during the touch, as a fraction of the weight (each placement draws
+    /// 0.5–1.5 × it; a sin² bump over the touch).
+    pub press_fraction: f64,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -79,6 +101,7 @@ struct RawSensorFile {
     rig: Option<Table>,
     cover: Option<Table>,
     effects: Option<BTreeMap<String, Table>>,
+    nuisance: Option<Table>,
 }
 
 static CIRCUIT: Schema = Schema { fields: || &["vcc_v", "r_m_ohm", "divider", "adc_bits", "vref_v", "sample_rate_hz"], tables: &[] };
@@ -92,6 +115,7 @@ static HYST: Schema = Schema { fields: || &["fraction"], tables: &[] };
 static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s"], tables: &[] };
 static SAT: Schema = Schema { fields: || &["level_v"], tables: &[] };
+static NUISANCE: Schema = Schema { fields: || &["gain_jitter", "rest_v", "rest_tau_s", "noise_ar_rho", "noise_ar_share"], tables: &[] };
 static SPIKES: Schema = Schema { fields: || &["amplitude_v", "duration_s"], tables: &[] };
 static EFFECTS: Schema = Schema {
     fields: || &[],
@@ -114,9 +138,11 @@ pub static SENSOR_SCHEMA: Schema = Schema {
         ("rig", false, &RIG),
         ("cover", false, &COVER),
         ("effects", false, &EFFECTS),
+        ("nuisance", false, &NUISANCE),
     ],
 };
-pub static PROTOCOL_SCHEMA: Schema = Schema { fields: || &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s"], tables: &[] };
+pub static PROTOCOL_SCHEMA: Schema =
+    Schema { fields: || &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s", "touch_s", "press_fraction"], tables: &[] };
 
 fn num(c: &mut Collector, t: &Option<Table>, table: &str, key: &str, default: f64, lo: f64, hi: f64) -> Option<f64> {
     let path = format!("{table}.{key}");
@@ -183,6 +209,13 @@ impl SensorParams {
             spike_v: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "amplitude_v", 0.0, 0.0, 48.0).unwrap_or(0.0),
             spike_s: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "duration_s", 0.15, 0.001, 10.0).unwrap_or(0.15),
         };
+        let nu = Nuisance {
+            gain_jitter: num(&mut c, &r.nuisance, "nuisance", "gain_jitter", 0.0, 0.0, 0.5).unwrap_or(0.0),
+            rest_v: num(&mut c, &r.nuisance, "nuisance", "rest_v", 0.0, 0.0, 10.0).unwrap_or(0.0),
+            rest_tau_s: num(&mut c, &r.nuisance, "nuisance", "rest_tau_s", 100.0, 0.01, 1e6).unwrap_or(100.0),
+            noise_ar_rho: num(&mut c, &r.nuisance, "nuisance", "noise_ar_rho", 0.0, 0.0, 0.999).unwrap_or(0.0),
+            noise_ar_share: num(&mut c, &r.nuisance, "nuisance", "noise_ar_share", 0.0, 0.0, 1.0).unwrap_or(0.0),
+        };
         if let Some(b) = bits {
             if b.fract() != 0.0 {
                 c.push("circuit.adc_bits", b, "must be a whole number");
@@ -202,6 +235,7 @@ impl SensorParams {
                 cover_relax_fraction: crf?,
                 cover_tau_s: ctau?,
                 effects: eff,
+                nuisance: nu,
             })
         })();
         if let Some(p) = &v {
@@ -243,7 +277,11 @@ impl ProtocolParams {
         let base = num(&mut c, &t, "", "baseline_s", 10.0, 1.0, 1e5);
         let off = num(&mut c, &t, "", "logging_offset_s", 0.3, -5.0, 5.0);
         let jit = num(&mut c, &t, "", "logging_jitter_s", 0.15, 0.0, 5.0);
-        let v = (|| Some(ProtocolParams { weights_g: weights?, hold_s: hold?, baseline_s: base?, logging_offset_s: off?, logging_jitter_s: jit? }))();
+        let touch = num(&mut c, &t, "", "touch_s", 0.0, 0.0, 5.0);
+        let press = num(&mut c, &t, "", "press_fraction", 0.0, 0.0, 3.0);
+        let v = (|| {
+            Some(ProtocolParams { weights_g: weights?, hold_s: hold?, baseline_s: base?, logging_offset_s: off?, logging_jitter_s: jit?, touch_s: touch?, press_fraction: press? })
+        })();
         // paths of top-level keys carry a leading "." from the shared helper; tidy them
         for p in &mut c.problems {
             if let Some(s) = p.path.strip_prefix('.') {

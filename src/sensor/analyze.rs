@@ -222,12 +222,13 @@ fn weight_of(kind: ProtocolKind, s: &Step) -> (f64, &'static str) {
 /// Handling spikes at the steps' edges, from the fitted steps (a second look after part 1's
 /// running-median detector): per recording, the windows not already excluded.
 fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[StepReport], infos: &[RecordingInfo]) -> Vec<Vec<SpikeWindow>> {
-    recs.iter()
+    // the recordings placed by hand, each with its steps' edges and noise: searched together (what
+    // their placements share is the hand's press, not a spike)
+    let series: Vec<(usize, handling_spikes::EdgeSeries)> = recs
+        .iter()
         .enumerate()
+        .filter(|(_, rec)| preprocess::by_hand(rec, &opts.pre))
         .map(|(ri, rec)| {
-            if !preprocess::by_hand(rec, &opts.pre) {
-                return Vec::new();
-            }
             let own = &prep.steps[ri];
             let edges: Vec<EdgeStep> = own
                 .iter()
@@ -258,13 +259,16 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
                 Some(clip) => edges.into_iter().filter(|e| !rec.time_s.iter().zip(&rec.response).any(|(&t, &v)| t >= e.from_s && t <= e.to_s && v >= clip - 2.0 * sigma)).collect(),
                 None => edges,
             };
-            let known = &infos[ri].spikes;
-            handling_spikes::detect(&rec.time_s, &rec.response, &edges, sigma, opts.pre.max_spike_s)
-                .into_iter()
-                .filter(|w| !known.iter().any(|k| k.start_s <= w.end_s && w.start_s <= k.end_s))
-                .collect()
+            (ri, handling_spikes::EdgeSeries { t: &rec.time_s, v: &rec.response, steps: edges, sigma })
         })
-        .collect()
+        .collect();
+    let (idx, ser): (Vec<usize>, Vec<handling_spikes::EdgeSeries>) = series.into_iter().unzip();
+    let mut out = vec![Vec::new(); recs.len()];
+    for (ri, found) in idx.into_iter().zip(handling_spikes::detect_all(&ser, opts.pre.max_spike_s)) {
+        let known = &infos[ri].spikes;
+        out[ri] = found.into_iter().filter(|w| !known.iter().any(|k| k.start_s <= w.end_s && w.start_s <= k.end_s)).collect();
+    }
+    out
 }
 
 pub fn analyze(recs: &[Recording], opts: &Options) -> (Report, Prepared) {
@@ -322,7 +326,8 @@ fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepRep
 fn finish_report(recs: &[Recording], opts: &Options, prep: Prepared, infos: Vec<RecordingInfo>, steps: Vec<StepReport>) -> (Report, Prepared) {
     let kind = recs.first().map(|r| r.protocol_kind).unwrap_or(ProtocolKind::Input);
     // the paper method's τ where it is only a bound (its Eq. 3 optimum on the c grid's edge)
-    let mut notes: Vec<String> = steps.iter().flat_map(|s| s.paper.iter().flat_map(move |p| p.edge_notes.iter().map(move |n| format!("paper method, {:?} step {}: {n}", s.phase, s.index + 1)))).collect();
+    let mut notes: Vec<String> =
+        steps.iter().flat_map(|s| s.paper.iter().flat_map(move |p| p.edge_notes.iter().map(move |n| format!("paper method, {:?} step {}: {n}", s.phase, s.index + 1)))).collect();
     let fashion = match recs.first().and_then(readout) {
         Some(ro) if opts.method != Method::Paper => {
             let mut levels = Vec::new();

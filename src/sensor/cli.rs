@@ -5,9 +5,9 @@ use super::recording::{self, Recording};
 use super::sim::{self, Cover};
 use crate::error::{Error, Gather, Result};
 use crate::export::Staged;
-use crate::progress::Progress;
 use crate::params::read_source;
 use crate::params::sensor::{ProtocolParams, SensorParams};
+use crate::progress::Progress;
 use std::path::{Path, PathBuf};
 
 fn out_dir(out: &Path) -> Result<()> {

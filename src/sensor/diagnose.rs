@@ -12,15 +12,17 @@
 //! BIC by at least `MIN_DBIC`.
 
 mod normal;
+mod nuisance;
 mod spectrum;
 
-use normal::*;
-use spectrum::*;
 use super::analyze::{self, Options, Prepared, Report};
 use super::preprocess::Phase;
 use super::recording::Recording;
 use nalgebra::{DMatrix, DVector};
+use normal::*;
+pub use nuisance::NuisanceTerm;
 use serde::Serialize;
+use spectrum::*;
 
 /// A term must improve held-out prediction with a paired z of at least this over units.
 pub const MIN_Z: f64 = 3.0;
@@ -104,6 +106,12 @@ struct Config {
     restart: Vec<(usize, usize)>,
     /// With the relaxation spectrum: its grid, the load's ramp and the smoothness penalty.
     relax: Option<Relax>,
+    /// A gain per trial (all but the first): the trials' step sizes differ by a factor (the
+    /// sensor's temperature, the hand), a nuisance, not physics of the sensor.
+    gains: bool,
+    /// A relaxation per trial from its first sample, with this time constant: what the sample
+    /// brings from before the recording (how long it rested), a nuisance like the gains.
+    rest_tau: Option<f64>,
 }
 
 /// The relaxation spectrum's shape: kernels on a log grid of τ, driven by the load as applied (a
@@ -209,7 +217,30 @@ impl Design {
         }
     }
     fn ncols(&self, cfg: &Config) -> usize {
-        self.n_levels() + self.n_shape(cfg) + cfg.effects.iter().map(|e| effect_cols(*e, cfg)).sum::<usize>()
+        self.n_levels() + self.n_shape(cfg) + cfg.effects.iter().map(|e| effect_cols(*e, cfg)).sum::<usize>() + self.n_gains(cfg) + self.n_rests(cfg)
+    }
+    /// First column of the per-trial gains.
+    fn gain_col(&self, cfg: &Config) -> usize {
+        self.ncols(cfg) - self.n_gains(cfg) - self.n_rests(cfg)
+    }
+    /// First column of the per-trial rest relaxations (the last columns of a row).
+    fn rest_col(&self, cfg: &Config) -> usize {
+        self.ncols(cfg) - self.n_rests(cfg)
+    }
+    fn n_rests(&self, cfg: &Config) -> usize {
+        if cfg.rest_tau.is_some() && !self.prior && self.n_trials >= 2 {
+            self.n_trials
+        } else {
+            0
+        }
+    }
+    /// Columns of the per-trial gains (the last columns of a row).
+    fn n_gains(&self, cfg: &Config) -> usize {
+        if cfg.gains && !self.prior && self.n_trials >= 2 {
+            GAIN_COLS * self.n_trials
+        } else {
+            0
+        }
     }
     /// The design row of trial `i` at time t.
     fn row(&self, i: usize, tr: &Trial, t: f64, cfg: &Config, hat: &Hat, out: &mut Vec<f64>) {
@@ -280,12 +311,35 @@ impl Design {
                         relax_columns(i, tr, &steps, t, rx, &mut out[col..col + rx.cols()]);
                     }
                 }
-                Effect::Saturation | Effect::HandlingSpikes => {}
+                Effect::Saturation | Effect::HandlingSpikes | Effect::RestRelaxation => {}
             }
             col += effect_cols(*e, cfg);
         }
+        // a trial's gain scales its steps as the shared levels give them (two-stage: the levels
+        // from the fit before), to second order in the level: a gain of the sensor's conductance
+        // reaches the output through the read-out's curve (a divider compresses the top levels);
+        // the shared levels carry the trials' mean gain (a faint ridge on the gains, see
+        // solve_normal)
+        if self.n_gains(cfg) > 0 {
+            let top = steps.top - steps.l0;
+            for &s in &active {
+                let sg = &tr.segs[s];
+                let (a, b) = (hat.level_of(sg.load) - steps.l0, hat.level_of(sg.prev) - steps.l0);
+                let u = block_rise(t, steps.t0(s), steps.tau(s), h);
+                out[col + GAIN_COLS * i] += (a - b) * u;
+                if top != 0.0 {
+                    out[col + GAIN_COLS * i + 1] += (a * a - b * b) / top * u;
+                }
+            }
+        }
+        if let (Some(tau), true) = (cfg.rest_tau, self.n_rests(cfg) > 0) {
+            out[self.rest_col(cfg) + i] = (-(t - tr.t[0]).max(0.0) / tau).exp();
+        }
     }
 }
+
+/// Columns of one trial's gain: the change of level, and of its square (over the top level).
+const GAIN_COLS: usize = 2;
 
 /// Time constants after which a first-order rise is taken as settled (e^(−40) ≈ 4e-18).
 const SETTLED: f64 = 40.0;
@@ -387,7 +441,7 @@ impl Steps for TrialSteps<'_> {
 /// Design columns of a catalogue term.
 fn effect_cols(e: Effect, cfg: &Config) -> usize {
     match e {
-        Effect::Saturation | Effect::HandlingSpikes => 0,
+        Effect::Saturation | Effect::HandlingSpikes | Effect::RestRelaxation => 0,
         Effect::SecondTimeConstant => cfg.drive.columns(),
         Effect::Relaxation => cfg.relax.as_ref().map(|r| r.cols()).unwrap_or(0),
         _ => 1,
@@ -418,7 +472,6 @@ fn usable(tr: &Trial, j: usize, cfg: &Config) -> bool {
         None => true,
     }
 }
-
 
 fn predict(d: &Design, i: usize, tr: &Trial, t: f64, x: &[f64], cfg: &Config, hat: &Hat, buf: &mut Vec<f64>) -> f64 {
     d.row(i, tr, t, cfg, hat, buf);
@@ -476,6 +529,10 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
     match e {
         Effect::Creep => serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span}),
         Effect::Hysteresis => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span}),
+        Effect::RestRelaxation => {
+            let r0 = d.rest_col(c);
+            serde_json::json!({"tau_s": c.rest_tau, "amplitude_at_start_by_trial": (0..d.n_rests(c)).map(|q| at(r0 + q)).collect::<Vec<_>>()})
+        }
         Effect::SecondTimeConstant if c.drive == Drive::Size => {
             serde_json::json!({"drive": c.drive.label(), "after_loading_fraction": at(k), "after_unloading_fraction": at(k + 1), "tau2_s": c.tau2, "jump_after_loading_full_change": at(k) * span.abs(), "jump_after_unloading_full_change": at(k + 1) * span.abs()})
         }
@@ -592,6 +649,51 @@ fn term_col(d: &Design, cfg: &Config, e: Effect) -> usize {
     d.n_levels() + d.n_shape(cfg) + cfg.effects.iter().take_while(|x| **x != e).map(|x| effect_cols(*x, cfg)).sum::<usize>()
 }
 
+/// A held-out trial's own columns (its offset, and its gains and rest relaxation when the model has
+/// them), fitted on the samples before its first step and its odd segments (for scoring the even
+/// ones), and on those before and its even segments (for the odd ones), by least squares on the
+/// residual of the fold's model without them. Returns (columns, values per parity).
+fn trial_terms_halves(d: &Design, k: usize, tr: &Trial, xk: &[f64], cfg: &Config, hat: &Hat) -> (Vec<usize>, [Vec<f64>; 2]) {
+    let mut cols = vec![k];
+    if d.n_gains(cfg) > 0 {
+        cols.extend((0..GAIN_COLS).map(|c| d.gain_col(cfg) + GAIN_COLS * k + c));
+    }
+    if d.n_rests(cfg) > 0 {
+        cols.push(d.rest_col(cfg) + k);
+    }
+    let m = cols.len();
+    let mut x = xk.to_vec();
+    cols.iter().for_each(|&c| x[c] = 0.0);
+    let mut a = [DMatrix::<f64>::zeros(m, m), DMatrix::<f64>::zeros(m, m)];
+    let mut r = [DVector::<f64>::zeros(m), DVector::<f64>::zeros(m)];
+    let mut buf = Vec::new();
+    let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
+    for j in 0..tr.t.len() {
+        let seg = tr.segs.iter().filter(|s| s.t0 <= tr.t[j]).count();
+        if (seg == 0 && tr.t[j] >= t_first - 0.2) || at_jump(tr, tr.t[j]) || !usable(tr, j, cfg) {
+            continue;
+        }
+        let e = tr.v[j] - predict(d, k, tr, tr.t[j], &x, cfg, hat, &mut buf);
+        let c = DVector::from_iterator(m, cols.iter().map(|&q| buf[q]));
+        // fitted on this segment's parity, used for the other's; before the first step, for both
+        for p in 0..2 {
+            if seg == 0 || p != seg % 2 {
+                a[p] += &c * c.transpose();
+                r[p] += &c * e;
+            }
+        }
+    }
+    let vals = [0, 1].map(|p| {
+        let mut ap = a[p].clone();
+        let scale = 1e-9 * (0..m).map(|q| ap[(q, q)]).sum::<f64>().max(1e-300);
+        for q in 0..m {
+            ap[(q, q)] += scale;
+        }
+        ap.cholesky().map(|ch| ch.solve(&r[p]).iter().copied().collect()).unwrap_or_else(|| vec![0.0; m])
+    });
+    (cols, vals)
+}
+
 /// Fit on everything (rmse, BIC) and on folds (held-out RMSE).
 fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score, Vec<f64>)> {
     score_on(d, trials, trials, cfg, hat)
@@ -635,8 +737,16 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
             xk[k] = 0.0;
             let pre: Vec<f64> = (0..tr.t.len()).filter(|&j| tr.t[j] < t_first - 0.2).map(|j| tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf)).collect();
             xk[k] = if pre.is_empty() { 0.0 } else { pre.iter().sum::<f64>() / pre.len() as f64 };
+            // per-trial terms are validated inside their trial: fitted (with the offset) on every
+            // other step of it and scored on the steps between (both halves in turn)
+            let own = (d.n_gains(cfg) + d.n_rests(cfg) > 0).then(|| trial_terms_halves(d, k, tr, &xk, cfg, hat));
             for j in 0..tr.t.len() {
                 if tr.t[j] >= t_first - 0.2 && !at_jump(tr, tr.t[j]) {
+                    if let Some((cols, vals)) = &own {
+                        for (c, v) in cols.iter().zip(&vals[seg_of(tr, tr.t[j]) % 2]) {
+                            xk[*c] = *v;
+                        }
+                    }
                     let e = tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf);
                     hss += e * e;
                     hn += 1;
@@ -717,17 +827,71 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
             counts.insert((0, s), tr.t.iter().filter(|&&t| t >= sg.t0 && t < b).count());
         }
     }
-    if units.iter().any(|(k, &e)| !(e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt().is_finite() || (e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt() > range) {
+    if units
+        .iter()
+        .any(|(k, &e)| !(e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt().is_finite() || (e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt() > range)
+    {
         return None;
     }
     let unit_keys: Vec<(usize, usize)> = units.keys().copied().collect();
     let unit_n = unit_keys.iter().map(|k| counts.get(k).copied().unwrap_or(1).max(1)).collect();
-    Some((Score { rmse: (rss / n.max(1) as f64).sqrt(), heldout_rmse: (hss / hn.max(1) as f64).sqrt(), bic, params: p, n, units: units.into_values().collect(), unit_keys, unit_n, blocks }, x))
+    Some((
+        Score {
+            rmse: (rss / n.max(1) as f64).sqrt(),
+            heldout_rmse: (hss / hn.max(1) as f64).sqrt(),
+            bic,
+            params: p,
+            n,
+            units: units.into_values().collect(),
+            unit_keys,
+            unit_n,
+            blocks,
+        },
+        x,
+    ))
 }
 
 /// Paired z statistic of the held-out improvement over units (positive: the candidate predicts
 /// better). Scale-free, so it does not depend on the noise per sample or the sampling rate.
+/// The held-out evidence for `after` over `before`, per unit (squared errors): the paired z of the
+/// differences, or, when `after` is at least [`MIN_ROBUST_GAIN`] better in held-out RMSE, the
+/// larger of it and the z of the per-unit log error ratios. The differences' z is vetoed by one
+/// unit (a large change in one step widens their spread as much as a loss would); the log ratios
+/// weigh every unit alike, so a term that makes most units better passes however unevenly, and
+/// the minimum gain keeps a consistent but negligible change out.
 fn paired_z(before: &[f64], after: &[f64]) -> f64 {
+    let z = diff_z(before, after);
+    let (sb, sa) = (before.iter().sum::<f64>(), after.iter().sum::<f64>());
+    if before.len() == after.len() && sb > 0.0 && 1.0 - (sa / sb).sqrt() >= MIN_ROBUST_GAIN {
+        z.max(log_ratio_z(before, after))
+    } else {
+        z
+    }
+}
+
+/// Least held-out RMSE gain for the log-ratio route of [`paired_z`].
+pub const MIN_ROBUST_GAIN: f64 = 0.03;
+
+/// The z of ln(before / after) over units; units whose errors are both under 1 % of the median
+/// unit's carry no ratio worth the name and are left out.
+fn log_ratio_z(before: &[f64], after: &[f64]) -> f64 {
+    let mut all: Vec<f64> = before.to_vec();
+    let floor = 0.01 * super::preprocess::median(&mut all);
+    let d: Vec<f64> = before.iter().zip(after).filter(|(a, b)| a.max(**b) > floor && **a > 0.0 && **b > 0.0).map(|(a, b)| (a / b).ln()).collect();
+    let m = d.len() as f64;
+    if d.len() < 3 {
+        return 0.0;
+    }
+    let mean = d.iter().sum::<f64>() / m;
+    let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
+    if sd <= 0.0 {
+        return 0.0;
+    }
+    mean / (sd / m.sqrt())
+}
+
+/// The paired z of the per-unit differences.
+fn diff_z(before: &[f64], after: &[f64]) -> f64 {
     if before.len() != after.len() || before.len() < 3 {
         return 0.0;
     }
@@ -814,7 +978,13 @@ fn unit_errors(trials: &[Trial], base: &Score, cur: &Score) -> Vec<UnitError> {
             let tr = trials.get(k.0)?;
             // multi-trial units count segments from 1 at the first onset; a single recording's
             // units are its steps from 0
-            let seg = if trials.len() >= 2 { k.1.checked_sub(1) } else if cur.blocks > 0 { k.1.checked_sub(1).map(|x| x / cur.blocks) } else { Some(k.1) };
+            let seg = if trials.len() >= 2 {
+                k.1.checked_sub(1)
+            } else if cur.blocks > 0 {
+                k.1.checked_sub(1).map(|x| x / cur.blocks)
+            } else {
+                Some(k.1)
+            };
             let start_s = seg.and_then(|s| tr.segs.get(s)).map(|s| s.t0).unwrap_or(tr.t.first().copied().unwrap_or(0.0));
             Some(UnitError { recording: tr.name.clone(), start_s, baseline_rmse: rmse(base, k)?, improved_rmse: rmse(cur, k)? })
         })
@@ -851,6 +1021,8 @@ pub struct Diagnosis {
     /// What the baseline's own fits say about themselves: steps whose fitted τ describes creep
     /// (of the order of the hold, or slower than the jump it follows).
     pub notes: Vec<String>,
+    /// Nuisances of the set-up the improved model carries (per-trial gains), with their evidence.
+    pub nuisances: Vec<NuisanceTerm>,
     #[serde(skip)]
     pub predictions: Vec<Prediction>,
 }
@@ -1134,6 +1306,7 @@ fn signature(e: Effect, holds: &[HoldData], trials: &[Trial], clip: Option<f64>,
                 })
             })
             .collect(),
+        Effect::RestRelaxation => vec![],
     };
     found.into_iter().map(|l| Window { recording: l.recording, start_s: l.start_s, end_s: l.end_s, statistic: l.statistic }).collect()
 }
@@ -1337,7 +1510,12 @@ pub fn refitted_baseline(recs: &[Recording], opts: &Options) -> Option<Diagnosis
 /// would exclude are not spikes, decided before any term is selected.
 enum Outcome {
     Done(Box<Diagnosis>),
-    SpikesRejected { windows: Vec<Window>, before: f64, after: f64, unit: String },
+    SpikesRejected {
+        windows: Vec<Window>,
+        before: f64,
+        after: f64,
+        unit: String,
+    },
     /// Only the baseline was scored (a simulator preload being searched).
     Baseline(Score),
 }
@@ -1385,6 +1563,11 @@ fn entry_windows(e: Effect, d: &Design, trials: &[Trial], x: &[f64], cfg: &Confi
     } else {
         windows
     }
+}
+
+/// The z of the accepted candidate `e` in round `round`.
+fn z_of(decisions: &[Decision], round: usize, e: Effect) -> f64 {
+    decisions.iter().rev().find(|dc| dc.step == round && dc.candidate == e.name()).map(|dc| dc.z).unwrap_or(f64::NAN)
 }
 
 /// A finding's confidence from its held-out gain and its ΔBIC.
@@ -1458,7 +1641,18 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             Hat { loads: loads.clone(), level }
         }
         None => {
-            let level_cfg = Config { tau_free: false, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None };
+            let level_cfg = Config {
+                tau_free: false,
+                effects: vec![],
+                tau2: 1.0,
+                drive: Drive::Change,
+                clip: None,
+                tau_fixed: vec![],
+                restart: vec![],
+                relax: None,
+                gains: false,
+                rest_tau: None,
+            };
             let rows = all_rows(&trials);
             let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
             let mut level = vec![0.0];
@@ -1468,7 +1662,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     };
     let hat0 = hat.clone();
     // the baseline: first-order steps with their levels and time constants refitted jointly
-    let base_cfg = Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None };
+    let base_cfg =
+        Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None, gains: false, rest_tau: None };
     // fitted to the series as given (with the steps fitted to it), scored on the series without
     // the spikes (with the same steps); the diagnosis works on the latter, and the spikes are
     // reported and excluded below
@@ -1517,20 +1712,31 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     };
     let mut cur = base_cfg.clone();
     let (mut cur_score, mut cur_x) = (clean.clone(), xc.clone());
+    // nuisances of the set-up first, so that no physics term stands in for them
+    let mut nuisances = Vec::new();
+    if let Some((c, s, x, nt)) = nuisance::try_gains(&d, &trials, &cur, &cur_score, &hat) {
+        cur = c;
+        cur_score = s;
+        cur_x = x;
+        nuisances.push(nt);
+    }
+    // what a term is judged against when the others must stand without it
+    let floor = cur_score.clone();
     let mut spectrum_exact: Option<Exact> = None;
     let mut round0_exact: Option<Exact> = None;
     let mut findings = Vec::new();
     let mut decisions = Vec::new();
-    for round in 0..CATALOGUE.len() {
+    for round in 0..=CATALOGUE.len() {
         let mut best: Option<(Effect, Config, Score, Vec<f64>)> = None;
         // the exact form (creep, one second relaxation) that predicts held-out data best this round
         let mut exact: Option<Exact> = None;
-        for &e in &CATALOGUE {
+        for &e in CATALOGUE.iter().chain([&Effect::RestRelaxation]) {
             // the spectrum is tried once the catalogue's model stands (below)
             if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) || e == Effect::Relaxation {
                 continue;
             }
             let cands: Vec<Config> = match e {
+                Effect::RestRelaxation => nuisance::rest_candidates(&d, &trials, &cur),
                 Effect::SecondTimeConstant => [Drive::Change, Drive::Size]
                     .iter()
                     .flat_map(|&drive| TAU2_GRID.iter().map(move |m| (drive, m)))
@@ -1602,11 +1808,17 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             let dbic = s.bic - cur_score.bic;
             // a clip can only change the units that reach it: its evidence is tested there
             let z = if e == Effect::Saturation { paired_z_on(&cur_score, &s, &clip_steps.units) } else { paired_z(&cur_score.units, &s.units) };
+            if std::env::var("TIPFORGE_DEBUG_UNITS").is_ok() {
+                let d: Vec<String> = cur_score.units.iter().zip(&s.units).zip(&s.unit_keys).map(|((a, b), k)| format!("{:?}:{:.3}/{:.3}", k, a, b)).collect();
+                eprintln!("{} z {z:.2}: {}", e.name(), d.join(" "));
+            }
             decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
             if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
                 exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
             }
-            if gain > 0.0 && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
+            // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN
+            let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { 0.0 };
+            if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
                 best = Some((e, c, s, x));
             }
         }
@@ -1621,16 +1833,20 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
         let dbic = s.bic - cur_score.bic;
         let params = term_params(&d, &c, &x, e, &hat);
-        findings.push(Finding {
-            effect: e.name(),
-            confidence: confidence(dbic, gain),
-            explanation: if e == Effect::SecondTimeConstant { c.drive.explanation().to_string() } else { e.explanation().to_string() },
-            windows,
-            term: Term { name: format!("{}_term", e.name()), params },
-            heldout_rmse_before: cur_score.heldout_rmse,
-            heldout_rmse_after: s.heldout_rmse,
-            delta_bic: dbic,
-        });
+        if e == Effect::RestRelaxation {
+            nuisances.push(nuisance::as_nuisance(e, params, &cur_score, &s, z_of(&decisions, round, e)));
+        } else {
+            findings.push(Finding {
+                effect: e.name(),
+                confidence: confidence(dbic, gain),
+                explanation: if e == Effect::SecondTimeConstant { c.drive.explanation().to_string() } else { e.explanation().to_string() },
+                windows,
+                term: Term { name: format!("{}_term", e.name()), params },
+                heldout_rmse_before: cur_score.heldout_rmse,
+                heldout_rmse_after: s.heldout_rmse,
+                delta_bic: dbic,
+            });
+        }
         cur = c;
         cur_score = s;
         cur_x = x;
@@ -1646,7 +1862,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                 cur_score = s2;
                 cur_x = x2;
             }
-            if let Some(f) = findings.last_mut() {
+            if let (Some(f), false) = (findings.last_mut(), e == Effect::RestRelaxation) {
                 f.heldout_rmse_after = cur_score.heldout_rmse;
             }
         }
@@ -1666,11 +1882,14 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                 c.tau_fixed.clear();
                 c.restart.clear();
             }
+            if *e == Effect::RestRelaxation {
+                c.rest_tau = None;
+            }
             let Some((s_wo, x_wo)) = score(&d, &trials, &c, &hat) else { continue };
             let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clip_steps.units) } else { paired_z(&s_wo.units, &cur_score.units) };
             let dbic = cur_score.bic - s_wo.bic;
             let passes = z >= MIN_Z && dbic <= MIN_DBIC;
-            let others_stand = c.effects.is_empty() || (paired_z(&clean.units, &s_wo.units) >= MIN_Z && s_wo.bic - clean.bic <= MIN_DBIC && s_wo.heldout_rmse < clean.heldout_rmse);
+            let others_stand = c.effects.is_empty() || (paired_z(&floor.units, &s_wo.units) >= MIN_Z && s_wo.bic - floor.bic <= MIN_DBIC && s_wo.heldout_rmse < floor.heldout_rmse);
             if !passes && others_stand && worst.as_ref().is_none_or(|w| z < w.4) {
                 worst = Some((idx, c, s_wo, x_wo, z));
             }
@@ -1687,6 +1906,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             accepted: false,
         });
         findings.retain(|f| f.effect != gone.name());
+        nuisances.retain(|n| n.name != gone.name());
         cur = c;
         cur_score = s_wo;
         cur_x = x_wo;
@@ -1702,7 +1922,10 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             if accepted {
                 // named after the exact form it replaces that gained most, else the one that
                 // predicted best on the baseline
-                let replaced = findings.iter().filter(|f| f.effect == Effect::Creep.name() || f.effect == Effect::SecondTimeConstant.name()).max_by(|a, b| (a.heldout_rmse_before - a.heldout_rmse_after).total_cmp(&(b.heldout_rmse_before - b.heldout_rmse_after)));
+                let replaced = findings
+                    .iter()
+                    .filter(|f| f.effect == Effect::Creep.name() || f.effect == Effect::SecondTimeConstant.name())
+                    .max_by(|a, b| (a.heldout_rmse_before - a.heldout_rmse_after).total_cmp(&(b.heldout_rmse_before - b.heldout_rmse_after)));
                 spectrum_exact = match replaced {
                     Some(f) => Some(Exact {
                         effect: if f.effect == Effect::Creep.name() { Effect::Creep } else { Effect::SecondTimeConstant },
@@ -1853,20 +2076,22 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     }
     let by_unit = unit_errors(&final_base, &base, &cur_score);
     // the spectrum's finding takes the name its fitted shape gives
-    let mut final_names: Vec<&'static str> = cur.effects.iter().map(|e| e.name()).collect();
+    let mut final_names: Vec<&'static str> = cur.effects.iter().filter(|e| **e != Effect::RestRelaxation).map(|e| e.name()).collect();
+    // the nuisances' parameters as in the final model
+    for n in nuisances.iter_mut().filter(|n| n.name == Effect::RestRelaxation.name()) {
+        n.params = term_params(&d, &cur, &cur_x, Effect::RestRelaxation, &hat);
+    }
     for f in findings.iter_mut().filter(|f| f.effect == Effect::Relaxation.name()) {
         name_spectrum(f, spectrum_exact.as_ref());
         for n in final_names.iter_mut().filter(|n| **n == Effect::Relaxation.name()) {
             *n = f.effect;
         }
     }
-    let notes = report
-        .steps
-        .iter()
-        .filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after)))
-        .collect();
+    let notes =
+        report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after))).collect();
     Some(Outcome::Done(Box::new(Diagnosis {
         notes,
+        nuisances,
         schema: SCHEMA,
         recordings: recs.iter().map(|r| r.source.clone()).collect(),
         unit: report.unit.clone(),

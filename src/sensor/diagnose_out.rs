@@ -60,7 +60,19 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
     for n in &d.notes {
         out.push(format!("creep-dominated baseline step: {n}"));
     }
-    let effects = if d.final_.effects.is_empty() { "the baseline alone".to_string() } else { format!("baseline + {}", d.final_.effects.join(" + ")) };
+    for n in &d.nuisances {
+        out.push(format!(
+            "nuisance {} (not a finding): {}; held-out RMSE {} → {} {} (z {:.1})",
+            n.name,
+            n.explanation,
+            sig4(n.heldout_rmse_before),
+            sig4(n.heldout_rmse_after),
+            d.unit,
+            n.z
+        ));
+    }
+    let with: Vec<&str> = d.final_.effects.iter().copied().chain(d.nuisances.iter().map(|n| n.name)).collect();
+    let effects = if with.is_empty() { "the baseline alone".to_string() } else { format!("baseline + {}", with.join(" + ")) };
     let change = if d.baseline.heldout_rmse > 0.0 { format!(" ({:+.1} %)", 100.0 * (d.final_.heldout_rmse / d.baseline.heldout_rmse - 1.0)) } else { String::new() };
     let units = if d.final_.effects.is_empty() { String::new() } else { format!(", better on {} of {} held-out units", d.final_.units_better, d.final_.units_scored) };
     out.push(format!("improved model: {effects}; held-out RMSE {} → {} {u}{change}{units}", sig4(d.baseline.heldout_rmse), sig4(d.final_.heldout_rmse)));

@@ -586,7 +586,11 @@ fn paper_per_trial(d: &StepData, weight: f64) -> Option<(PerTrial, Vec<String>)>
         }
         let c = grid[best.1];
         if grid.len() > 1 && best.1 == 0 {
-            notes.push(format!("{}: Eq. 3's best τ is the grid's smallest, one sample interval ({:.4} s): the rise is faster than the sampling resolves", tr.recording, c * 0.637 * t_total));
+            notes.push(format!(
+                "{}: Eq. 3's best τ is the grid's smallest, one sample interval ({:.4} s): the rise is faster than the sampling resolves",
+                tr.recording,
+                c * 0.637 * t_total
+            ));
         } else if grid.len() > 1 && best.1 == grid.len() - 1 {
             notes.push(format!("{}: Eq. 3's best τ is the grid's largest, c = 1 ({:.3} s): the response has not settled within the hold", tr.recording, c * 0.637 * t_total));
         }

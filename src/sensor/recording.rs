@@ -1,9 +1,9 @@
 //! Recordings: one trial per CSV file (format in docs/recording-format.md). Streams the file
 //! through the `csv` crate; every problem is reported with file:line and the fix, never a panic.
 
+use super::csv_source::CommentTee;
 use crate::error::{Error, Problem, Problems, Result};
 use std::collections::BTreeMap;
-use super::csv_source::CommentTee;
 use std::io::BufRead;
 use std::path::Path;
 
@@ -78,8 +78,13 @@ pub struct Recording {
 /// Time columns read, with the factor to seconds.
 const TIMES: [(&str, f64); 3] = [("time_s", 1.0), ("time_ms", 1e-3), ("time_us", 1e-6)];
 /// Response columns read: the name in the file, the column it is, the factor to that column's unit.
-const RESPONSES: [(&str, &str, f64); 5] =
-    [("voltage_v", "voltage_v", 1.0), ("voltage_mv", "voltage_v", 1e-3), ("adc_counts", "adc_counts", 1.0), ("resistance_ohm", "resistance_ohm", 1.0), ("resistance_kohm", "resistance_ohm", 1e3)];
+const RESPONSES: [(&str, &str, f64); 5] = [
+    ("voltage_v", "voltage_v", 1.0),
+    ("voltage_mv", "voltage_v", 1e-3),
+    ("adc_counts", "adc_counts", 1.0),
+    ("resistance_ohm", "resistance_ohm", 1.0),
+    ("resistance_kohm", "resistance_ohm", 1e3),
+];
 /// Protocol columns read: the name in the file, what it is, the factor to that kind's unit.
 const PROTOCOLS: [(&str, ProtocolKind, f64); 5] = [
     ("load_g", ProtocolKind::LoadG, 1.0),
@@ -262,7 +267,10 @@ fn read_header(p: &mut P, n: usize, rec: &csv::StringRecord) -> Option<Columns> 
     let time: Vec<Col> = TIMES.iter().flat_map(|&(c, f)| find(c).into_iter().map(move |at| Col { at, name: c, factor: f })).collect();
     if time.len() != 1 {
         let why = if time.is_empty() {
-            format!("no `time_s` column: the first non-comment line must be a header naming time_s (or {}), one response column and one protocol column", listed(&TIMES[1..], |x| x.0))
+            format!(
+                "no `time_s` column: the first non-comment line must be a header naming time_s (or {}), one response column and one protocol column",
+                listed(&TIMES[1..], |x| x.0)
+            )
         } else {
             "`time_s` appears more than once (a time column is needed exactly once)".to_string()
         };
@@ -323,7 +331,12 @@ fn read_row(p: &mut P, n: usize, rec: &csv::StringRecord, c: &Columns, rows: &mu
         return;
     }
     if c.protocol_kind != ProtocolKind::Input && vals[2] < 0.0 {
-        p.at(n, c.protocol.name, rec[c.protocol.at].to_string(), "a load on the sensor cannot be negative: log the load the weights or the actuator put on the sensor (0 when unloaded)");
+        p.at(
+            n,
+            c.protocol.name,
+            rec[c.protocol.at].to_string(),
+            "a load on the sensor cannot be negative: log the load the weights or the actuator put on the sensor (0 when unloaded)",
+        );
         rows.bad += 1;
         return;
     }

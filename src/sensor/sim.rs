@@ -103,11 +103,11 @@ impl SensorParams {
 }
 
 /// Simulates one trial.
-pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover: Option<&Cover>, seed: u64) -> (Recording, Truth) {
+pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover: Option<&Cover>, seed: u64) -> (Recording, Truth) {
     let mut rng = Rng::new(seed);
-    let c = &p.circuit;
+    let c = &p0.circuit;
     let dt = 1.0 / c.sample_rate_hz;
-    let e = &p.effects;
+    let e = &p0.effects;
     // schedule: (landing time, load after) for each placement and removal
     let mut events: Vec<(f64, f64, &'static str, usize)> = Vec::new();
     let mut load = 0.0;
@@ -126,6 +126,16 @@ pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover:
     let n = (total / dt).round() as usize + 1;
     let logs: Vec<f64> = events.iter().map(|ev| ev.0 + proto.logging_offset_s + proto.logging_jitter_s * rng.normal()).collect();
     let spike_signs: Vec<f64> = events.iter().map(|_| if rng.uniform() < 0.5 { -1.0 } else { 1.0 }).collect();
+    // nuisances (each draws only when it is on, so the sequence without them is unchanged)
+    let touches: Vec<(f64, f64)> =
+        if proto.touch_s > 0.0 { events.iter().map(|_| (proto.touch_s * (0.5 + rng.uniform()), proto.press_fraction * (0.5 + rng.uniform()))).collect() } else { vec![] };
+    let nu = &p0.nuisance;
+    let mut scaled = p0.clone();
+    if nu.gain_jitter > 0.0 {
+        scaled.g_ref_s *= (1.0 + nu.gain_jitter * rng.normal()).max(0.2);
+    }
+    let p = &scaled;
+    let rest_amp = if nu.rest_v > 0.0 { nu.rest_v * (2.0 * rng.uniform() - 1.0) } else { 0.0 };
     let share = cover.map(|cv| cv.dome_share).unwrap_or(1.0);
     let force_of = |g: f64| (g + preload_g) / 1000.0 * G_N_PER_KG * share;
     let (mut time, mut clean, mut fo, mut logged) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
@@ -166,7 +176,16 @@ pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover:
             f_max = f_max.max(f_after);
             ev_i += 1;
         }
-        let f = force_of(cur_load);
+        // the load as applied: a hand's touch ramps it in before the landing, with a press
+        let mut load_now = cur_load;
+        if let (Some(&(d, press)), Some(ev)) = (touches.get(ev_i), events.get(ev_i)) {
+            let u = (tk - (ev.0 - d)) / d;
+            if (0.0..1.0).contains(&u) {
+                let delta = ev.1 - cur_load;
+                load_now = cur_load + delta * u * u * (3.0 - 2.0 * u) + press * delta.abs() * (std::f64::consts::PI * u).sin().powi(2);
+            }
+        }
+        let f = force_of(load_now);
         let mut target = p.v_eq(f);
         if e.hysteresis > 0.0 && f < f_max {
             target += e.hysteresis * (p.v_eq(f_max) - target);
@@ -191,7 +210,8 @@ pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover:
             0.0
         };
         let drift = e.drift_v_per_s * tk + e.wander_v * (2.0 * std::f64::consts::PI * tk / e.wander_period_s).sin();
-        let mut v = first + creep_now + drift - v_cov;
+        let rest = if rest_amp != 0.0 { rest_amp * (-tk / nu.rest_tau_s).exp() } else { 0.0 };
+        let mut v = first + creep_now + drift - v_cov + rest;
         if e.spike_v > 0.0 {
             for (j, ev) in events.iter().enumerate() {
                 let s = tk - ev.0 + 0.5 * e.spike_s;
@@ -211,10 +231,20 @@ pub fn simulate(p: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover:
     // the rail (or the ADC's reference) clips the signal with its noise, so clipped samples pile up
     // at one value
     let sat = if e.saturation_v > 0.0 { e.saturation_v } else { f64::INFINITY };
+    // noise: white, plus an AR(1) part with its share of the variance when that is on
+    let share = if nu.noise_ar_share > 0.0 { nu.noise_ar_share } else { 0.0 };
+    let (s_white, s_ar, rho) = (p.noise_v * (1.0 - share).sqrt(), p.noise_v * share.sqrt(), nu.noise_ar_rho);
+    let mut ar = if share > 0.0 { s_ar * rng.normal() } else { 0.0 };
     let recorded: Vec<f64> = clean
         .iter()
         .map(|&v| {
-            let noisy = (v + p.noise_v * rng.normal()).min(sat);
+            let n = if share > 0.0 {
+                ar = rho * ar + (1.0 - rho * rho).sqrt() * s_ar * rng.normal();
+                s_white * rng.normal() + ar
+            } else {
+                p.noise_v * rng.normal()
+            };
+            let noisy = (v + n).min(sat);
             (noisy / c.vref_v * full).round().clamp(0.0, full) * c.vref_v / full
         })
         .collect();

@@ -38,21 +38,37 @@ fn huber(r: f64, k: f64) -> (f64, f64) {
 
 /// Columns of the local model at time t: level, the step's first-order rise, and what a second
 /// relaxation, creep or drift add near the edge (a rise at 4τ, and a ramp and its square after the
-/// onset, over the window's length `span`).
-fn columns(t: f64, t0: f64, tau: f64, span: f64) -> [f64; NCOL] {
+/// onset, over the window's length `span`). The load may arrive over a touch of `d` seconds from
+/// the onset (a hand lowering a weight): the rises are then the responses to that ramp.
+fn columns(t: f64, t0: f64, tau: f64, d: f64, span: f64) -> [f64; NCOL] {
     if t > t0 {
         let r = (t - t0) / span;
-        [1.0, 1.0 - (-(t - t0) / tau).exp(), 1.0 - (-(t - t0) / (4.0 * tau)).exp(), r, r * r]
+        [1.0, ramp_rise(t - t0, tau, d), ramp_rise(t - t0, 4.0 * tau, d), r, r * r]
     } else {
         [1.0, 0.0, 0.0, 0.0, 0.0]
     }
 }
 
+/// The first-order response (time constant τ) at x ≥ 0 after the start of a unit ramp of length d
+/// (a step when d = 0).
+fn ramp_rise(x: f64, tau: f64, d: f64) -> f64 {
+    if d <= 0.0 {
+        1.0 - (-x / tau).exp()
+    } else if x < d {
+        (x - tau * (1.0 - (-x / tau).exp())) / d
+    } else {
+        1.0 - tau / d * ((-(x - d) / tau).exp() - (-x / tau).exp())
+    }
+}
+
+/// The touches tried (s): the load at once, or lowered by hand over these.
+const TOUCHES_S: [f64; 4] = [0.0, 0.25, 0.5, 1.0];
+
 const NCOL: usize = 5;
 
 /// Robust (Huber) fit of the local model over onsets near `t0_s` and time constants around
 /// `tau_s`; returns the residuals.
-fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> Vec<f64> {
+fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> (Vec<f64>, f64, f64) {
     let n = t.len();
     let k = 1.345 * sigma;
     let span = (t[n - 1] - t[0]).max(1e-9);
@@ -68,9 +84,9 @@ fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> Vec<f64> 
     };
     let mut cols = vec![[0.0f64; NCOL]; n];
     let model = |c: &[f64; NCOL], x: &[f64; NCOL]| c.iter().zip(x).map(|(a, b)| a * b).sum::<f64>();
-    let fit = |t0: f64, tau: f64, cols: &mut Vec<[f64; NCOL]>| -> (f64, [f64; NCOL]) {
+    let fit = |t0: f64, tau: f64, d: f64, cols: &mut Vec<[f64; NCOL]>| -> (f64, [f64; NCOL]) {
         for j in 0..n {
-            cols[j] = columns(t[j], t0, tau, span);
+            cols[j] = columns(t[j], t0, tau, d, span);
         }
         let mut x = start;
         // Huber's loss: convex, so no fit may buy a wrong onset by calling the edge an outlier
@@ -105,16 +121,21 @@ fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> Vec<f64> 
         (obj, x)
     };
     let mut best = (f64::INFINITY, st.t0_s, st.tau_s, start);
-    // coarse onsets at the part-1 τ, then τ, then fine onsets
-    for g in 0..=30 {
-        let t0 = st.t0_s - 0.3 + 0.02 * g as f64;
-        let (o, x) = fit(t0, st.tau_s, &mut cols);
-        if o < best.0 {
-            best = (o, t0, st.tau_s, x);
+    let mut touch = 0.0;
+    // coarse onsets and touches at the part-1 τ (a touch starts about half of it earlier), then
+    // τ, then fine onsets
+    for d in TOUCHES_S {
+        for g in 0..=30 {
+            let t0 = st.t0_s - 0.3 - 0.5 * d + 0.02 * g as f64;
+            let (o, x) = fit(t0, st.tau_s, d, &mut cols);
+            if o < best.0 {
+                best = (o, t0, st.tau_s, x);
+                touch = d;
+            }
         }
     }
     for f in [0.5, 0.7, 1.4, 2.0] {
-        let (o, x) = fit(best.1, f * st.tau_s, &mut cols);
+        let (o, x) = fit(best.1, f * st.tau_s, touch, &mut cols);
         if o < best.0 {
             best = (o, best.1, f * st.tau_s, x);
         }
@@ -125,40 +146,94 @@ fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> Vec<f64> 
         let (t_c, tau_c) = (best.1, best.2);
         for g in 0..=n_tau {
             let tau = tau_c * (1.0 - span + 2.0 * span * g as f64 / n_tau.max(1) as f64);
-            let (o, x) = fit(t_c, tau, &mut cols);
+            let (o, x) = fit(t_c, tau, touch, &mut cols);
             if o < best.0 {
                 best = (o, t_c, tau, x);
             }
         }
         for g in 0..=n_t0 {
             let t0 = t_c - 0.5 * dt0 * n_t0 as f64 + dt0 * g as f64;
-            let (o, x) = fit(t0, best.2, &mut cols);
+            let (o, x) = fit(t0, best.2, touch, &mut cols);
             if o < best.0 {
                 best = (o, t0, best.2, x);
             }
         }
     }
     let (_, t0, tau, x) = best;
-    (0..n).map(|j| v[j] - model(&columns(t[j], t0, tau, span), &x)).collect()
+    ((0..n).map(|j| v[j] - model(&columns(t[j], t0, tau, touch, span), &x)).collect(), t0 + 0.5 * touch, l0 - a0)
 }
 
-/// Spike windows at the steps' edges (raw samples, their noise `sigma`).
+/// One recording as the edge detector sees it: its samples, noise and steps.
+pub struct EdgeSeries<'a> {
+    pub t: &'a [f64],
+    pub v: &'a [f64],
+    pub steps: Vec<EdgeStep>,
+    pub sigma: f64,
+}
+
+/// One step's high-passed residual from its robust first-order fit.
+struct EdgeResidual {
+    t: Vec<f64>,
+    rr: Vec<f64>,
+    /// The fit's onset and change of level.
+    t0: f64,
+    dv: f64,
+}
+
+/// Spike windows at the steps' edges of one recording (raw samples, their noise `sigma`).
 pub fn detect(t: &[f64], v: &[f64], steps: &[EdgeStep], sigma: f64, max_spike_s: f64) -> Vec<SpikeWindow> {
-    let mut out = Vec::new();
+    detect_all(&[EdgeSeries { t, v, steps: steps.to_vec(), sigma }], max_spike_s).pop().unwrap_or_default()
+}
+
+/// Spike windows at the steps' edges of every recording of a data set. What the placements have in
+/// common is not a spike: a hand presses on every weight it places or lifts, in proportion to the
+/// weight. The residuals around the rising steps, scaled by each step's size and aligned at its
+/// onset, are averaged (a trimmed mean: spikes at some placements, or of either sign, fall out),
+/// and so are the falling steps'; each step's part of that common transient is subtracted before
+/// its residual is scanned.
+pub fn detect_all(series: &[EdgeSeries], max_spike_s: f64) -> Vec<Vec<SpikeWindow>> {
+    let res: Vec<Vec<EdgeResidual>> = series.iter().map(edge_residuals).collect();
+    let dt = series.iter().filter(|s| s.t.len() > 1).map(|s| (s.t[s.t.len() - 1] - s.t[0]) / (s.t.len() - 1) as f64).fold(f64::INFINITY, f64::min);
+    let templates = if dt.is_finite() { [press_template(&res, dt, true), press_template(&res, dt, false)] } else { [None, None] };
+    series
+        .iter()
+        .zip(res)
+        .map(|(s, rs)| {
+            rs.into_iter()
+                .flat_map(|mut e| {
+                    if let Some(tp) = &templates[usize::from(e.dv < 0.0)] {
+                        // each placement's press has its own size (how hard the hand pressed):
+                        // the template's least-squares scale on this step, within 0–MAX_PRESS_SCALE
+                        let c: Vec<f64> = e.t.iter().map(|&t| e.dv.abs() * tp.at(t - e.t0)).collect();
+                        let cc: f64 = c.iter().map(|x| x * x).sum();
+                        let a = if cc > 0.0 { (c.iter().zip(&e.rr).map(|(x, y)| x * y).sum::<f64>() / cc).clamp(0.0, MAX_PRESS_SCALE) } else { 0.0 };
+                        for (x, cj) in e.rr.iter_mut().zip(&c) {
+                            *x -= a * cj;
+                        }
+                    }
+                    scan(&e.t, &e.rr, s.sigma, max_spike_s)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The residuals of one recording's steps (robust first-order fit, the slow part removed).
+fn edge_residuals(s: &EdgeSeries) -> Vec<EdgeResidual> {
+    let (t, v, sigma) = (s.t, s.v, s.sigma);
     if t.len() < 8 || sigma <= 0.0 {
-        return out;
+        return vec![];
     }
     let dt = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
-    let mut widths: Vec<usize> = [0.03, 0.05, 0.09, 0.15, 0.25].iter().map(|w| ((w / dt).round() as usize).max(1)).collect();
-    widths.dedup();
     let half = ((0.5 / dt).round() as usize).max(2);
-    for st in steps {
+    let mut out = Vec::new();
+    for st in &s.steps {
         let idx: Vec<usize> = (0..t.len()).filter(|&j| t[j] >= st.from_s && t[j] <= st.to_s).collect();
         if idx.len() < 4 * half {
             continue;
         }
         let (tt, vv): (Vec<f64>, Vec<f64>) = idx.iter().map(|&j| (t[j], v[j])).unzip();
-        let r = robust_residual(&tt, &vv, st, sigma);
+        let (r, t0, dv) = robust_residual(&tt, &vv, st, sigma);
         let n = r.len();
         // what varies slowly is the model's, not a spike
         let mut buf = Vec::with_capacity(2 * half + 1);
@@ -169,45 +244,121 @@ pub fn detect(t: &[f64], v: &[f64], steps: &[EdgeStep], sigma: f64, max_spike_s:
                 r[j] - median(&mut buf)
             })
             .collect();
-        let mut prefix = vec![0.0; n + 1];
-        for j in 0..n {
-            prefix[j + 1] = prefix[j] + rr[j];
+        out.push(EdgeResidual { t: tt, rr, t0, dv });
+    }
+    out
+}
+
+/// A placement's press is at most this many times the common one.
+pub const MAX_PRESS_SCALE: f64 = 3.0;
+
+/// Steps of one direction needed for a common transient.
+pub const MIN_TEMPLATE_STEPS: usize = 4;
+
+/// The transient common to the steps of one direction, per unit change of level, on lags of `dt`
+/// from the onset.
+struct Template {
+    dt: f64,
+    lag0: i64,
+    values: Vec<f64>,
+}
+
+impl Template {
+    fn at(&self, lag_s: f64) -> f64 {
+        let k = (lag_s / self.dt).round() as i64 - self.lag0;
+        if k < 0 {
+            return 0.0;
         }
-        let mut hit = vec![false; n];
-        for &w in &widths {
-            if w > n {
-                continue;
-            }
-            let scale = sigma * (w as f64).sqrt();
-            for j in 0..=n - w {
-                if ((prefix[j + w] - prefix[j]) / scale).abs() >= MIN_Z {
-                    hit[j..j + w].iter_mut().for_each(|h| *h = true);
-                }
+        self.values.get(k as usize).copied().unwrap_or(0.0)
+    }
+}
+
+fn press_template(res: &[Vec<EdgeResidual>], dt: f64, rising: bool) -> Option<Template> {
+    let steps: Vec<&EdgeResidual> = res.iter().flatten().filter(|e| (e.dv > 0.0) == rising && e.dv != 0.0).collect();
+    if steps.len() < MIN_TEMPLATE_STEPS {
+        return None;
+    }
+    let mut by_lag: std::collections::BTreeMap<i64, Vec<f64>> = Default::default();
+    for e in &steps {
+        for (j, &x) in e.rr.iter().enumerate() {
+            by_lag.entry(((e.t[j] - e.t0) / dt).round() as i64).or_default().push(x / e.dv.abs());
+        }
+    }
+    let (&lag0, _) = by_lag.iter().next()?;
+    let (&last, _) = by_lag.iter().next_back()?;
+    let mut values = vec![0.0; (last - lag0 + 1) as usize];
+    for (lag, mut xs) in by_lag {
+        // only lags most steps reach (the windows differ in length)
+        if 2 * xs.len() < steps.len() {
+            continue;
+        }
+        xs.sort_by(f64::total_cmp);
+        let cut = xs.len() / 4;
+        let kept = &xs[cut..xs.len() - cut];
+        values[(lag - lag0) as usize] = kept.iter().sum::<f64>() / kept.len() as f64;
+    }
+    if std::env::var("TIPFORGE_DEBUG_PRESS").is_ok() {
+        let (k, m) = values.iter().enumerate().fold((0, 0.0f64), |a, (k, v)| if v.abs() > a.1.abs() { (k, *v) } else { a });
+        eprintln!("template rising={rising}: {} steps, lags {lag0}.., peak {m:.4} at lag {}", steps.len(), k as i64 + lag0);
+    }
+    Some(Template { dt, lag0, values })
+}
+
+/// The windows where a step's residual stands off zero (box filters of 0.03–0.25 s).
+fn scan(tt: &[f64], rr: &[f64], sigma: f64, max_spike_s: f64) -> Vec<SpikeWindow> {
+    let mut out = Vec::new();
+    let n = rr.len();
+    if n < 2 {
+        return out;
+    }
+    let dt = (tt[n - 1] - tt[0]) / (n - 1) as f64;
+    let mut widths: Vec<usize> = [0.03, 0.05, 0.09, 0.15, 0.25].iter().map(|w| ((w / dt).round() as usize).max(1)).collect();
+    widths.dedup();
+    let mut prefix = vec![0.0; n + 1];
+    for j in 0..n {
+        prefix[j + 1] = prefix[j] + rr[j];
+    }
+    let mut hit = vec![false; n];
+    for &w in &widths {
+        if w > n {
+            continue;
+        }
+        // noise with memory (a slow correlated part) makes box sums wider than σ·√w: their own
+        // robust spread over the window is the scale when it is larger
+        let sums: Vec<f64> = (0..=n - w).map(|j| prefix[j + w] - prefix[j]).collect();
+        let spread = {
+            let mut a: Vec<f64> = sums.iter().map(|x| x.abs()).collect();
+            1.4826 * median(&mut a)
+        };
+        let scale = (sigma * (w as f64).sqrt()).max(spread);
+        for (j, sum) in sums.iter().enumerate() {
+            if (sum / scale).abs() >= MIN_Z {
+                hit[j..j + w].iter_mut().for_each(|h| *h = true);
             }
         }
-        let gap = ((0.1 / dt).round() as usize).max(1);
-        let pad = ((0.05 / dt).round() as usize).max(1);
-        let mut j = 0;
-        while j < n {
-            if !hit[j] {
-                j += 1;
-                continue;
-            }
-            let start = j;
-            let mut end = j;
-            let mut k = j;
-            while k < n && k <= end + gap {
-                if hit[k] {
-                    end = k;
-                }
-                k += 1;
-            }
-            if tt[end] - tt[start] <= max_spike_s {
-                let peak = (start..=end).map(|q| rr[q]).fold(0.0f64, |p, x| if x.abs() > p.abs() { x } else { p });
-                out.push(SpikeWindow { start_s: tt[start.saturating_sub(pad)], end_s: tt[(end + pad).min(n - 1)], peak });
-            }
-            j = end + 1;
+    }
+    let gap = ((0.1 / dt).round() as usize).max(1);
+    let pad = ((0.05 / dt).round() as usize).max(1);
+    let mut j = 0;
+    while j < n {
+        if !hit[j] {
+            j += 1;
+            continue;
         }
+        let start = j;
+        let mut end = j;
+        let mut k = j;
+        while k < n && k <= end + gap {
+            if hit[k] {
+                end = k;
+            }
+            k += 1;
+        }
+        if tt[end] - tt[start] <= max_spike_s {
+            let peak = (start..=end).map(|q| rr[q]).fold(0.0f64, |p, x| if x.abs() > p.abs() { x } else { p });
+            out.push(SpikeWindow { start_s: tt[start.saturating_sub(pad)], end_s: tt[(end + pad).min(n - 1)], peak });
+        }
+        j = end + 1;
     }
     out
 }

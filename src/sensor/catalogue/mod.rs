@@ -28,6 +28,9 @@ pub enum Effect {
     /// A relaxation spectrum over every load change: reported as creep or a second time
     /// constant, whichever its fitted shape is ([`relaxation::name`]).
     Relaxation,
+    /// A relaxation per trial from its first sample (what the sample brings from before the
+    /// recording): a nuisance that competes with the physics terms, reported with the nuisances.
+    RestRelaxation,
 }
 
 /// The effects with a model term, in the order the forward selection tries them.
@@ -43,6 +46,7 @@ impl Effect {
             Effect::Saturation => "saturation",
             Effect::HandlingSpikes => "handling_spikes",
             Effect::Relaxation => "relaxation",
+            Effect::RestRelaxation => "rest_relaxation",
         }
     }
     pub fn explanation(self) -> &'static str {
@@ -54,9 +58,12 @@ impl Effect {
             Effect::Saturation => saturation::EXPLANATION,
             Effect::HandlingSpikes => handling_spikes::EXPLANATION,
             Effect::Relaxation => relaxation::EXPLANATION,
+            Effect::RestRelaxation => REST_EXPLANATION,
         }
     }
 }
+
+pub const REST_EXPLANATION: &str = "each trial starts with a relaxation of its own that fades from its first sample (what the sensor brings from before the recording: how long it rested, what it carried): a nuisance of the set-up, fitted per trial and validated inside each trial, not physics of the sensor";
 
 /// The steps of one trial as the model terms see them (all in the response unit and seconds).
 pub trait Steps {

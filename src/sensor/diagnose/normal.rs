@@ -231,6 +231,16 @@ pub(super) fn solve_normal(d: &Design, cfg: &Config, n: &Normal, support: Option
             ata[(c0 + a, c0 + a)] += 1e-6 * scale.max(1e-300);
         }
     }
+    // the per-trial gains and the shared levels trade one common factor: a faint ridge on the gains
+    // leaves it with the levels (the gains' mean near zero)
+    let ng = d.n_gains(cfg);
+    if ng > 0 {
+        let g0 = p - ng;
+        let scale = (g0..p).map(|a| ata[(a, a)]).sum::<f64>() / ng as f64;
+        for a in g0..p {
+            ata[(a, a)] += 1e-6 * scale.max(1e-300);
+        }
+    }
     // tiny ridge keeps columns without data (a load absent from a fold) solvable at zero
     for a in 0..p {
         ata[(a, a)] += 1e-12 * (1.0 + ata[(a, a)]);

@@ -81,9 +81,18 @@ pub(super) fn name_spectrum(f: &mut Finding, exact: Option<&Exact>) {
         Shape::Creep => (Effect::Creep, catalogue::relaxation::EXPLANATION.to_string()),
         Shape::SecondTimeConstant => {
             let (tau, _) = catalogue::relaxation::peak(&taus, &amps[..taus.len()]);
-            (Effect::SecondTimeConstant, format!("{} — the relaxation spectrum fitted over every load change has one narrow peak, at τ ≈ {} s", catalogue::second_time_constant::EXPLANATION, catalogue::sig3(tau)))
+            (
+                Effect::SecondTimeConstant,
+                format!(
+                    "{} — the relaxation spectrum fitted over every load change has one narrow peak, at τ ≈ {} s",
+                    catalogue::second_time_constant::EXPLANATION,
+                    catalogue::sig3(tau)
+                ),
+            )
         }
-        Shape::ChangeDriven => (Effect::SecondTimeConstant, format!("{} — from the relaxation spectrum fitted over every load change", catalogue::second_time_constant::EXPLANATION_SIZE)),
+        Shape::ChangeDriven => {
+            (Effect::SecondTimeConstant, format!("{} — from the relaxation spectrum fitted over every load change", catalogue::second_time_constant::EXPLANATION_SIZE))
+        }
     };
     f.effect = effect.name();
     f.explanation = why;

@@ -1,0 +1,89 @@
+//! Nuisances: what differs between the trials of one data set and is not physics of the sensor
+//! (the guide's "room temperature, the hand, how long the sensor rested"). A nuisance enters the
+//! model before any catalogue term, so that no physics term stands in for it, and only when it
+//! predicts held-out data better under the same rule as a term. A per-trial term is validated
+//! inside its trial (see `trial_gain_halves`): the held-out trial's own value is fitted on half of
+//! its steps and scored on the other half.
+
+use super::*;
+
+pub const GAIN_EXPLANATION: &str = "the trials' steps differ in size by a common factor per trial (the sensor's temperature, how it sits, the hand): a nuisance of the set-up, fitted as one gain per trial and validated inside each trial, not physics of the sensor";
+
+/// A nuisance the model carries, with the held-out evidence for it.
+#[derive(Debug, Clone, Serialize)]
+pub struct NuisanceTerm {
+    pub name: &'static str,
+    pub explanation: &'static str,
+    pub params: serde_json::Value,
+    pub heldout_rmse_before: f64,
+    pub heldout_rmse_after: f64,
+    pub z: f64,
+    pub delta_bic: f64,
+}
+
+/// Per-trial gains, when they pass the rule every term passes (lower held-out error, paired z ≥
+/// MIN_Z, ΔBIC ≤ MIN_DBIC) against the model without them.
+pub(super) fn try_gains(d: &Design, trials: &[Trial], cur: &Config, cur_score: &Score, hat: &Hat) -> Option<(Config, Score, Vec<f64>, NuisanceTerm)> {
+    if d.prior || trials.len() < 2 || cur.gains {
+        return None;
+    }
+    let mut c = cur.clone();
+    c.gains = true;
+    let (s, x) = score(d, trials, &c, hat)?;
+    let z = paired_z(&cur_score.units, &s.units);
+    let dbic = s.bic - cur_score.bic;
+    if !(s.heldout_rmse < cur_score.heldout_rmse && z >= MIN_Z && dbic <= MIN_DBIC) {
+        return None;
+    }
+    let g0 = d.gain_col(&c);
+    // the gain at the top level: the change of level and of its square, both at the top
+    let gains: Vec<f64> = (0..trials.len()).map(|k| 1.0 + x[g0 + GAIN_COLS * k] + x[g0 + GAIN_COLS * k + 1]).collect();
+    let nt = NuisanceTerm {
+        name: "trial_gain",
+        explanation: GAIN_EXPLANATION,
+        params: serde_json::json!({
+            "gain_at_top_level_by_trial": gains,
+            "recordings": trials.iter().map(|t| t.name.clone()).collect::<Vec<_>>(),
+        }),
+        heldout_rmse_before: cur_score.heldout_rmse,
+        heldout_rmse_after: s.heldout_rmse,
+        z,
+        delta_bic: dbic,
+    };
+    Some((c, s, x, nt))
+}
+
+/// The rest relaxation's time constants tried (s), up to the shortest trial's length.
+pub const REST_TAUS_S: [f64; 5] = [10.0, 30.0, 100.0, 300.0, 1000.0];
+
+/// The rest relaxation's candidates: one per time constant up to the shortest trial's length
+/// (with two trials or more; it competes with the physics terms in the forward selection).
+pub(super) fn rest_candidates(d: &Design, trials: &[Trial], cur: &Config) -> Vec<Config> {
+    if d.prior || trials.len() < 2 || cur.rest_tau.is_some() {
+        return vec![];
+    }
+    let shortest = trials.iter().map(|t| t.t.last().copied().unwrap_or(0.0) - t.t.first().copied().unwrap_or(0.0)).fold(f64::INFINITY, f64::min);
+    REST_TAUS_S
+        .into_iter()
+        .filter(|&t| t <= shortest)
+        .map(|tau| {
+            let mut c = cur.clone();
+            c.effects.push(Effect::RestRelaxation);
+            c.rest_tau = Some(tau);
+            c
+        })
+        .collect()
+}
+
+/// A nuisance the forward selection took, as the diagnosis reports it.
+pub(super) fn as_nuisance(e: Effect, params: serde_json::Value, before: &Score, after: &Score, z: f64) -> NuisanceTerm {
+    NuisanceTerm {
+        name: e.name(),
+        explanation: e.explanation(),
+        params,
+        heldout_rmse_before: before.heldout_rmse,
+        heldout_rmse_after: after.heldout_rmse,
+        z,
+        delta_bic: after.bic - before.bic,
+    }
+}
