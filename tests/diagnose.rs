@@ -66,6 +66,50 @@ fn concealed_hysteresis_and_spikes_are_named() {
     assert!(ei < 0.5 * eb, "{eb} -> {ei}");
 }
 
+/// Issue 15, item 4: an amplifier rail that clips before the noise (the plateau is the rail ±
+/// noise, no samples pile up) below the top two levels is named from the collapse of the levels'
+/// staircase; a divider that compresses its top levels (89 % of the span, exponent 0.85) is not a
+/// rail. Seeds 72 000–72 200, not looked at before (the rule was set on CLI cases 10 001–10 031).
+#[test]
+fn a_rail_before_the_noise_is_saturation_and_a_compressing_divider_is_not() {
+    for seed in [72_000u64, 72_100, 72_200] {
+        let rail = |s: &mut SensorParams| {
+            s.effects.saturation_v = 1.40;
+            s.effects.saturation_before_noise = true;
+        };
+        let d = diagnose(&case(seed, rail), &Default::default()).unwrap();
+        let found: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
+        assert_eq!(found, vec!["saturation"], "seed {seed}");
+        let squeeze = |s: &mut SensorParams| {
+            s.g_ref_s = 9.0e-4;
+            s.exponent = 0.85;
+        };
+        let d = diagnose(&case(seed, squeeze), &Default::default()).unwrap();
+        assert!(d.findings.iter().all(|f| f.effect != "saturation"), "seed {seed}: {:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>());
+    }
+}
+
+/// Issue 15: trials that differ in gain (±3 %, the sensor's temperature or the hand) are a nuisance
+/// of the set-up: a gain per trial enters the model, validated inside each held-out trial, and is
+/// reported apart from the findings; a 1σ hysteresis is still named; and on trials of one gain no
+/// gain enters. Seeds 73 000–73 200, not looked at before (the rule was set on CLI cases 10 011–10 041).
+#[test]
+fn trials_of_different_gain_are_a_nuisance_not_a_finding() {
+    for seed in [73_000u64, 73_100, 73_200] {
+        let set = |s: &mut SensorParams| {
+            s.nuisance.gain_jitter = 0.03;
+            s.effects.hysteresis = 5.492e-3;
+        };
+        let d = diagnose(&case(seed, set), &Default::default()).unwrap();
+        let found: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
+        assert_eq!(found, vec!["hysteresis"], "seed {seed}");
+        let g = d.nuisances.iter().find(|n| n.name == "trial_gain").unwrap_or_else(|| panic!("seed {seed}: no trial gain"));
+        assert!(g.heldout_rmse_after < 0.8 * g.heldout_rmse_before, "seed {seed}: {} -> {}", g.heldout_rmse_before, g.heldout_rmse_after);
+        let same = diagnose(&case(seed, |s| s.effects.hysteresis = 5.492e-3), &Default::default()).unwrap();
+        assert!(same.nuisances.iter().all(|n| n.name != "trial_gain"), "seed {seed}: a gain entered on trials of one gain");
+    }
+}
+
 #[test]
 fn cli_writes_the_output_contract() {
     let dir = std::env::temp_dir().join(format!("tipforge-diag-{}", std::process::id()));
@@ -219,9 +263,9 @@ fn edge_misfit_of_a_large_second_relaxation_is_not_excluded_as_handling_spikes()
     // excluded such windows (improved error to the truth 0.52–0.63 × the baseline's); with it,
     // those that keep them reach ~0.28 ×. Where exclusion lowers the held-out error a little, the
     // windows are still excluded (a known limit, BENCHMARKS.md).
-    // Since the edge detector fits a touch (the load lowered over up to 1 s) and subtracts what the
-    // placements share, most of these misfits are not flagged at all (4 of 6; 1 kept, 1 still
-    // excluded): the cases that take the misfit for handling spikes must stay at most one.
+    // Since the edge detector's local model may have the load arrive over a touch (up to 1 s), most
+    // of these misfits are not flagged at all: the cases that take the misfit for handling spikes
+    // must stay at most one of six.
     let mut kept_cases = 0;
     let mut taken_for_spikes = 0;
     for seed in [71_000u64, 71_100, 71_200, 71_300, 71_400, 71_500] {

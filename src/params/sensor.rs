@@ -34,6 +34,9 @@ pub struct Effects {
     pub wander_period_s: f64,
     /// Output clipped at this voltage (0 = off).
     pub saturation_v: f64,
+    /// The clip acts on the signal before the noise is added (an amplifier's rail: the plateau is
+    /// the rail ± noise), not on the recorded samples (the ADC's reference: they pile up at one value).
+    pub saturation_before_noise: bool,
     /// Handling spike at each placement/removal: amplitude and duration.
     pub spike_v: f64,
     pub spike_s: f64,
@@ -114,7 +117,7 @@ static CREEP: Schema = Schema { fields: || &["per_decade", "time_s"], tables: &[
 static HYST: Schema = Schema { fields: || &["fraction"], tables: &[] };
 static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s"], tables: &[] };
-static SAT: Schema = Schema { fields: || &["level_v"], tables: &[] };
+static SAT: Schema = Schema { fields: || &["level_v", "before_noise"], tables: &[] };
 static NUISANCE: Schema = Schema { fields: || &["gain_jitter", "rest_v", "rest_tau_s", "noise_ar_rho", "noise_ar_share"], tables: &[] };
 static SPIKES: Schema = Schema { fields: || &["amplitude_v", "duration_s"], tables: &[] };
 static EFFECTS: Schema = Schema {
@@ -196,7 +199,16 @@ impl SensorParams {
         let ctau = num(&mut c, &r.cover, "cover", "tau_s", 5.0, 0.001, 1e5);
         let ef = r.effects.clone().unwrap_or_default();
         let e = |name: &str| ef.get(name).cloned();
+        let before_noise = match e("saturation").as_ref().and_then(|t| t.get("before_noise")) {
+            None => false,
+            Some(toml::Value::Boolean(b)) => *b,
+            Some(v) => {
+                c.push("effects.saturation.before_noise", v, "use true (an amplifier's rail, before the noise) or false (the ADC's reference, after it)");
+                false
+            }
+        };
         let eff = Effects {
+            saturation_before_noise: before_noise,
             creep_per_decade: num(&mut c, &e("creep"), "effects.creep", "per_decade", 0.0, 0.0, 10.0).unwrap_or(0.0),
             creep_time_s: num(&mut c, &e("creep"), "effects.creep", "time_s", 1.0, 1e-3, 1e5).unwrap_or(1.0),
             hysteresis: num(&mut c, &e("hysteresis"), "effects.hysteresis", "fraction", 0.0, 0.0, 1.0).unwrap_or(0.0),

@@ -222,8 +222,7 @@ fn weight_of(kind: ProtocolKind, s: &Step) -> (f64, &'static str) {
 /// Handling spikes at the steps' edges, from the fitted steps (a second look after part 1's
 /// running-median detector): per recording, the windows not already excluded.
 fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[StepReport], infos: &[RecordingInfo]) -> Vec<Vec<SpikeWindow>> {
-    // the recordings placed by hand, each with its steps' edges and noise: searched together (what
-    // their placements share is the hand's press, not a spike)
+    // the recordings placed by hand, each with its steps' edges and noise
     let series: Vec<(usize, handling_spikes::EdgeSeries)> = recs
         .iter()
         .enumerate()

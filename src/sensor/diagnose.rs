@@ -855,39 +855,45 @@ fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat
 /// better). Scale-free, so it does not depend on the noise per sample or the sampling rate.
 /// The held-out evidence for `after` over `before`, per unit (squared errors): the paired z of the
 /// differences, or, when `after` is at least [`MIN_ROBUST_GAIN`] better in held-out RMSE, the
-/// larger of it and the z of the per-unit log error ratios. The differences' z is vetoed by one
-/// unit (a large change in one step widens their spread as much as a loss would); the log ratios
-/// weigh every unit alike, so a term that makes most units better passes however unevenly, and
-/// the minimum gain keeps a consistent but negligible change out.
+/// larger of it and the Wilcoxon signed-rank z of the differences. The differences' z is vetoed by
+/// one unit (a large change in one step widens their spread as much as a loss would); the ranks
+/// weigh every unit alike, so a term that makes most units better passes however unevenly, and the
+/// minimum gain keeps a consistent but negligible change out.
 fn paired_z(before: &[f64], after: &[f64]) -> f64 {
     let z = diff_z(before, after);
     let (sb, sa) = (before.iter().sum::<f64>(), after.iter().sum::<f64>());
     if before.len() == after.len() && sb > 0.0 && 1.0 - (sa / sb).sqrt() >= MIN_ROBUST_GAIN {
-        z.max(log_ratio_z(before, after))
+        z.max(signed_rank_z(before, after))
     } else {
         z
     }
 }
 
-/// Least held-out RMSE gain for the log-ratio route of [`paired_z`].
+/// Least held-out RMSE gain for the signed-rank route of [`paired_z`].
 pub const MIN_ROBUST_GAIN: f64 = 0.03;
 
-/// The z of ln(before / after) over units; units whose errors are both under 1 % of the median
-/// unit's carry no ratio worth the name and are left out.
-fn log_ratio_z(before: &[f64], after: &[f64]) -> f64 {
-    let mut all: Vec<f64> = before.to_vec();
-    let floor = 0.01 * super::preprocess::median(&mut all);
-    let d: Vec<f64> = before.iter().zip(after).filter(|(a, b)| a.max(**b) > floor && **a > 0.0 && **b > 0.0).map(|(a, b)| (a / b).ln()).collect();
-    let m = d.len() as f64;
-    if d.len() < 3 {
+/// The Wilcoxon signed-rank statistic of before − after over units, as a z (normal approximation;
+/// zero differences left out, tied magnitudes given their mean rank).
+fn signed_rank_z(before: &[f64], after: &[f64]) -> f64 {
+    let mut d: Vec<f64> = before.iter().zip(after).map(|(a, b)| a - b).filter(|x| *x != 0.0).collect();
+    let n = d.len();
+    if n < 3 {
         return 0.0;
     }
-    let mean = d.iter().sum::<f64>() / m;
-    let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
-    if sd <= 0.0 {
-        return 0.0;
+    d.sort_by(|a, b| a.abs().total_cmp(&b.abs()));
+    let mut w = 0.0;
+    let mut i = 0;
+    while i < n {
+        let mut j = i;
+        while j + 1 < n && d[j + 1].abs() == d[i].abs() {
+            j += 1;
+        }
+        let rank = 0.5 * ((i + 1) + (j + 1)) as f64;
+        w += d[i..=j].iter().map(|x| rank * x.signum()).sum::<f64>();
+        i = j + 1;
     }
-    mean / (sd / m.sqrt())
+    let nf = n as f64;
+    w / (nf * (nf + 1.0) * (2.0 * nf + 1.0) / 6.0).sqrt()
 }
 
 /// The paired z of the per-unit differences.
@@ -1228,6 +1234,41 @@ fn clip_fixes(trials: &[Trial], clip: f64, steps: &ClipSteps) -> Vec<FixedStep> 
 fn clip_level(trials: &[Trial]) -> Option<f64> {
     let sigma = trials.iter().map(|t| t.sigma).fold(0.0, f64::max);
     catalogue::saturation::clip_level(&trials.iter().map(|t| t.v.as_slice()).collect::<Vec<_>>(), sigma)
+}
+
+/// An increment of the levels below this share of the one its two predecessors extrapolate to
+/// (geometrically: a divider's compression shrinks them by a steady ratio) has collapsed.
+pub const RAIL_COLLAPSE: f64 = 0.2;
+
+/// A rail before the noise, from the staircase of levels (first level fit): the increments from
+/// some load on, and every one after it, collapse against the trend of those below (at least two
+/// increments before it, so the trend is known). The rail is the median of the settled samples of
+/// the holds at those loads (the rail ± symmetric noise). None when the staircase does not collapse.
+fn rail_level(trials: &[Trial], hat: &Hat) -> Option<f64> {
+    let mut lv: Vec<(f64, f64)> = hat.loads.iter().copied().zip(hat.level.iter().copied()).collect();
+    lv.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // the clip term is a ceiling: a response that falls with load has its rail at the bottom
+    if lv.last()?.1 < lv.first()?.1 {
+        return None;
+    }
+    let inc: Vec<f64> = lv.windows(2).map(|w| w[1].1 - w[0].1).collect();
+    let collapsed = |k: usize| k >= 2 && inc[k - 1] > 0.0 && inc[k - 2] > 0.0 && inc[k] < RAIL_COLLAPSE * inc[k - 1] * inc[k - 1] / inc[k - 2];
+    let k = (2..inc.len()).find(|&k| (k..inc.len()).all(|q| q == k && collapsed(q) || q > k && inc[q].abs() < RAIL_COLLAPSE * inc[k - 1]))?;
+    // the loads at the rail: above the collapsed increment's lower end
+    let from = lv[k].0;
+    let mut v: Vec<f64> = trials
+        .iter()
+        .flat_map(|tr| {
+            tr.segs.iter().enumerate().filter(|(_, sg)| sg.load >= from).flat_map(move |(s, sg)| {
+                let end = tr.segs.get(s + 1).map(|n| n.t0).unwrap_or(f64::INFINITY);
+                tr.t.iter().zip(&tr.v).filter(move |(&t, _)| t >= sg.t0 + 5.0 * sg.tau && t < end).map(|(_, &v)| v)
+            })
+        })
+        .collect();
+    if v.len() < 10 {
+        return None;
+    }
+    Some(super::preprocess::median(&mut v))
 }
 
 /// One hold of one trial with a model's residuals (the stretch before the first step included).
@@ -1682,7 +1723,9 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         let windows = signature(Effect::HandlingSpikes, &[], &trials, None, &report);
         return Some(Outcome::SpikesRejected { windows, before: base.heldout_rmse, after: clean.heldout_rmse, unit: report.unit.clone() });
     }
-    let clip = clip_level(&trials);
+    // a clip: samples piled at one value (a clip after the noise), or a staircase of levels whose
+    // top collapses (a rail before the noise: the plateau is the rail ± noise)
+    let clip = clip_level(&trials).or_else(|| rail_level(&trials, &hat));
     // locate: every test on the baseline's residuals (the clean fit), before any term is chosen
     let located: Vec<LocatedWindow> = {
         let holds = hold_data(&d, &trials, &xc, &base_cfg, &hat);
@@ -1779,7 +1822,12 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                     }
                 }
             }
-            let Some((mut c, mut b0)) = pick else { continue };
+            let Some((mut c, mut b0)) = pick else {
+                if std::env::var("TIPFORGE_DEBUG_UNITS").is_ok() {
+                    eprintln!("{}: no training fit", e.name());
+                }
+                continue;
+            };
             // a second relaxation already in the model: its τ2 is refitted with the new term (a
             // term left out biases it — drift lengthens τ2), by a local search on the grid
             if e != Effect::SecondTimeConstant && c.effects.contains(&Effect::SecondTimeConstant) {
@@ -1803,7 +1851,12 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                     }
                 }
             }
-            let Some((s, x)) = score(&d, &trials, &c, &hat) else { continue };
+            let Some((s, x)) = score(&d, &trials, &c, &hat) else {
+                if std::env::var("TIPFORGE_DEBUG_UNITS").is_ok() {
+                    eprintln!("{}: no held-out score", e.name());
+                }
+                continue;
+            };
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
             let dbic = s.bic - cur_score.bic;
             // a clip can only change the units that reach it: its evidence is tested there
@@ -2143,6 +2196,24 @@ mod tests {
         assert!(super::local_noise(&ramp) < 1e-9);
     }
     use super::*;
+
+    /// One unit that improves a lot does not veto a term that makes every unit better (issue 15,
+    /// item 5): the differences' z falls under MIN_Z, the log ratios' does not; a change that
+    /// makes no unit better passes neither way, nor does a consistent change under 3 %.
+    #[test]
+    fn one_unit_does_not_veto_a_term_that_helps_every_unit() {
+        let before: Vec<f64> = (0..30).map(|k| 1.0 + 0.1 * (k % 7) as f64).collect();
+        let mut after: Vec<f64> = before.iter().enumerate().map(|(k, b)| b * (0.8 + 0.05 * (k % 3) as f64)).collect();
+        let mut b2 = before.clone();
+        b2[29] = 40.0;
+        after[29] = 1.0;
+        assert!(diff_z(&b2, &after) < MIN_Z, "{}", diff_z(&b2, &after));
+        assert!(paired_z(&b2, &after) >= MIN_Z, "{}", paired_z(&b2, &after));
+        let worse: Vec<f64> = before.iter().map(|b| b * 1.05).collect();
+        assert!(paired_z(&before, &worse) < 0.0);
+        let tiny: Vec<f64> = before.iter().map(|b| b * 0.99).collect();
+        assert_eq!(paired_z(&before, &tiny), diff_z(&before, &tiny));
+    }
 
     /// The Gauss–Newton columns are the derivatives of the model they correct: the filtered
     /// sample's average, before, across and after a step's onset.

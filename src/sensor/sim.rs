@@ -231,6 +231,8 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
     // the rail (or the ADC's reference) clips the signal with its noise, so clipped samples pile up
     // at one value
     let sat = if e.saturation_v > 0.0 { e.saturation_v } else { f64::INFINITY };
+    // an amplifier's rail clips the signal before the noise: the plateau is the rail ± noise
+    let (sat, rail) = if e.saturation_before_noise { (f64::INFINITY, sat) } else { (sat, f64::INFINITY) };
     // noise: white, plus an AR(1) part with its share of the variance when that is on
     let share = if nu.noise_ar_share > 0.0 { nu.noise_ar_share } else { 0.0 };
     let (s_white, s_ar, rho) = (p.noise_v * (1.0 - share).sqrt(), p.noise_v * share.sqrt(), nu.noise_ar_rho);
@@ -244,12 +246,12 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
             } else {
                 p.noise_v * rng.normal()
             };
-            let noisy = (v + n).min(sat);
+            let noisy = (v.min(rail) + n).min(sat);
             (noisy / c.vref_v * full).round().clamp(0.0, full) * c.vref_v / full
         })
         .collect();
     for v in clean.iter_mut() {
-        *v = v.min(sat);
+        *v = v.min(sat).min(rail);
     }
     let meta = Meta {
         sample_rate_hz: Some(c.sample_rate_hz),

@@ -68,7 +68,7 @@ const NCOL: usize = 5;
 
 /// Robust (Huber) fit of the local model over onsets near `t0_s` and time constants around
 /// `tau_s`; returns the residuals.
-fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> (Vec<f64>, f64, f64) {
+fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> Vec<f64> {
     let n = t.len();
     let k = 1.345 * sigma;
     let span = (t[n - 1] - t[0]).max(1e-9);
@@ -160,7 +160,7 @@ fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> (Vec<f64>
         }
     }
     let (_, t0, tau, x) = best;
-    ((0..n).map(|j| v[j] - model(&columns(t[j], t0, tau, touch, span), &x)).collect(), t0 + 0.5 * touch, l0 - a0)
+    (0..n).map(|j| v[j] - model(&columns(t[j], t0, tau, touch, span), &x)).collect()
 }
 
 /// One recording as the edge detector sees it: its samples, noise and steps.
@@ -175,9 +175,6 @@ pub struct EdgeSeries<'a> {
 struct EdgeResidual {
     t: Vec<f64>,
     rr: Vec<f64>,
-    /// The fit's onset and change of level.
-    t0: f64,
-    dv: f64,
 }
 
 /// Spike windows at the steps' edges of one recording (raw samples, their noise `sigma`).
@@ -185,37 +182,9 @@ pub fn detect(t: &[f64], v: &[f64], steps: &[EdgeStep], sigma: f64, max_spike_s:
     detect_all(&[EdgeSeries { t, v, steps: steps.to_vec(), sigma }], max_spike_s).pop().unwrap_or_default()
 }
 
-/// Spike windows at the steps' edges of every recording of a data set. What the placements have in
-/// common is not a spike: a hand presses on every weight it places or lifts, in proportion to the
-/// weight. The residuals around the rising steps, scaled by each step's size and aligned at its
-/// onset, are averaged (a trimmed mean: spikes at some placements, or of either sign, fall out),
-/// and so are the falling steps'; each step's part of that common transient is subtracted before
-/// its residual is scanned.
+/// Spike windows at the steps' edges of every recording of a data set.
 pub fn detect_all(series: &[EdgeSeries], max_spike_s: f64) -> Vec<Vec<SpikeWindow>> {
-    let res: Vec<Vec<EdgeResidual>> = series.iter().map(edge_residuals).collect();
-    let dt = series.iter().filter(|s| s.t.len() > 1).map(|s| (s.t[s.t.len() - 1] - s.t[0]) / (s.t.len() - 1) as f64).fold(f64::INFINITY, f64::min);
-    let templates = if dt.is_finite() { [press_template(&res, dt, true), press_template(&res, dt, false)] } else { [None, None] };
-    series
-        .iter()
-        .zip(res)
-        .map(|(s, rs)| {
-            rs.into_iter()
-                .flat_map(|mut e| {
-                    if let Some(tp) = &templates[usize::from(e.dv < 0.0)] {
-                        // each placement's press has its own size (how hard the hand pressed):
-                        // the template's least-squares scale on this step, within 0–MAX_PRESS_SCALE
-                        let c: Vec<f64> = e.t.iter().map(|&t| e.dv.abs() * tp.at(t - e.t0)).collect();
-                        let cc: f64 = c.iter().map(|x| x * x).sum();
-                        let a = if cc > 0.0 { (c.iter().zip(&e.rr).map(|(x, y)| x * y).sum::<f64>() / cc).clamp(0.0, MAX_PRESS_SCALE) } else { 0.0 };
-                        for (x, cj) in e.rr.iter_mut().zip(&c) {
-                            *x -= a * cj;
-                        }
-                    }
-                    scan(&e.t, &e.rr, s.sigma, max_spike_s)
-                })
-                .collect()
-        })
-        .collect()
+    series.iter().map(|s| edge_residuals(s).into_iter().flat_map(|e| scan(&e.t, &e.rr, s.sigma, max_spike_s)).collect()).collect()
 }
 
 /// The residuals of one recording's steps (robust first-order fit, the slow part removed).
@@ -233,7 +202,7 @@ fn edge_residuals(s: &EdgeSeries) -> Vec<EdgeResidual> {
             continue;
         }
         let (tt, vv): (Vec<f64>, Vec<f64>) = idx.iter().map(|&j| (t[j], v[j])).unzip();
-        let (r, t0, dv) = robust_residual(&tt, &vv, st, sigma);
+        let r = robust_residual(&tt, &vv, st, sigma);
         let n = r.len();
         // what varies slowly is the model's, not a spike
         let mut buf = Vec::with_capacity(2 * half + 1);
@@ -244,64 +213,9 @@ fn edge_residuals(s: &EdgeSeries) -> Vec<EdgeResidual> {
                 r[j] - median(&mut buf)
             })
             .collect();
-        out.push(EdgeResidual { t: tt, rr, t0, dv });
+        out.push(EdgeResidual { t: tt, rr });
     }
     out
-}
-
-/// A placement's press is at most this many times the common one.
-pub const MAX_PRESS_SCALE: f64 = 3.0;
-
-/// Steps of one direction needed for a common transient.
-pub const MIN_TEMPLATE_STEPS: usize = 4;
-
-/// The transient common to the steps of one direction, per unit change of level, on lags of `dt`
-/// from the onset.
-struct Template {
-    dt: f64,
-    lag0: i64,
-    values: Vec<f64>,
-}
-
-impl Template {
-    fn at(&self, lag_s: f64) -> f64 {
-        let k = (lag_s / self.dt).round() as i64 - self.lag0;
-        if k < 0 {
-            return 0.0;
-        }
-        self.values.get(k as usize).copied().unwrap_or(0.0)
-    }
-}
-
-fn press_template(res: &[Vec<EdgeResidual>], dt: f64, rising: bool) -> Option<Template> {
-    let steps: Vec<&EdgeResidual> = res.iter().flatten().filter(|e| (e.dv > 0.0) == rising && e.dv != 0.0).collect();
-    if steps.len() < MIN_TEMPLATE_STEPS {
-        return None;
-    }
-    let mut by_lag: std::collections::BTreeMap<i64, Vec<f64>> = Default::default();
-    for e in &steps {
-        for (j, &x) in e.rr.iter().enumerate() {
-            by_lag.entry(((e.t[j] - e.t0) / dt).round() as i64).or_default().push(x / e.dv.abs());
-        }
-    }
-    let (&lag0, _) = by_lag.iter().next()?;
-    let (&last, _) = by_lag.iter().next_back()?;
-    let mut values = vec![0.0; (last - lag0 + 1) as usize];
-    for (lag, mut xs) in by_lag {
-        // only lags most steps reach (the windows differ in length)
-        if 2 * xs.len() < steps.len() {
-            continue;
-        }
-        xs.sort_by(f64::total_cmp);
-        let cut = xs.len() / 4;
-        let kept = &xs[cut..xs.len() - cut];
-        values[(lag - lag0) as usize] = kept.iter().sum::<f64>() / kept.len() as f64;
-    }
-    if std::env::var("TIPFORGE_DEBUG_PRESS").is_ok() {
-        let (k, m) = values.iter().enumerate().fold((0, 0.0f64), |a, (k, v)| if v.abs() > a.1.abs() { (k, *v) } else { a });
-        eprintln!("template rising={rising}: {} steps, lags {lag0}.., peak {m:.4} at lag {}", steps.len(), k as i64 + lag0);
-    }
-    Some(Template { dt, lag0, values })
 }
 
 /// The windows where a step's residual stands off zero (box filters of 0.03–0.25 s).
