@@ -13,6 +13,10 @@ use super::super::preprocess::{median, SpikeWindow};
 
 pub const EXPLANATION: &str = "short transients while weights are placed by hand: an artifact of the procedure, reported and excluded from every fit, not modelled as physics";
 
+/// The box sums' robust spread, over this factor (its sampling error over a step's window), is
+/// their scale when that exceeds σ·√w (coloured noise).
+pub const COLOURED: f64 = 1.15;
+
 /// A box-filtered residual must stand this many of its own standard deviations off zero.
 pub const MIN_Z: f64 = 6.0;
 
@@ -244,7 +248,10 @@ fn scan(tt: &[f64], rr: &[f64], sigma: f64, max_spike_s: f64) -> Vec<SpikeWindow
             let mut a: Vec<f64> = sums.iter().map(|x| x.abs()).collect();
             1.4826 * median(&mut a)
         };
-        let scale = (sigma * (w as f64).sqrt()).max(spread);
+        // (white noise gives spread ≈ σ·√w; the spread's own sampling error is allowed for, so a
+        // spike is not missed for it)
+        let white = sigma * (w as f64).sqrt();
+        let scale = white.max(spread / COLOURED);
         for (j, sum) in sums.iter().enumerate() {
             if (sum / scale).abs() >= MIN_Z {
                 hit[j..j + w].iter_mut().for_each(|h| *h = true);

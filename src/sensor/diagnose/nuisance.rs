@@ -53,19 +53,24 @@ pub(super) fn try_gains(d: &Design, trials: &[Trial], cur: &Config, cur_score: &
     Some((c, s, x, nt))
 }
 
-/// The rest relaxation's time constants tried (s), up to the shortest trial's length.
+/// The rest relaxation's time constant is at most this share of the shortest trial.
+pub const REST_MAX_SHARE: f64 = 1.0 / 3.0;
+
+/// The rest relaxation's time constants tried (s), up to [`REST_MAX_SHARE`] of the shortest trial.
 pub const REST_TAUS_S: [f64; 5] = [10.0, 30.0, 100.0, 300.0, 1000.0];
 
-/// The rest relaxation's candidates: one per time constant up to the shortest trial's length
+/// The rest relaxation's candidates: one per time constant up to a third of the shortest trial
 /// (with two trials or more; it competes with the physics terms in the forward selection).
 pub(super) fn rest_candidates(d: &Design, trials: &[Trial], cur: &Config) -> Vec<Config> {
     if d.prior || trials.len() < 2 || cur.rest_tau.is_some() {
         return vec![];
     }
     let shortest = trials.iter().map(|t| t.t.last().copied().unwrap_or(0.0) - t.t.first().copied().unwrap_or(0.0)).fold(f64::INFINITY, f64::min);
+    // a relaxation that fades within the trial: a longer one is a trend per trial, which would
+    // stand in for drift and hysteresis (the later, unloading half raised)
     REST_TAUS_S
         .into_iter()
-        .filter(|&t| t <= shortest)
+        .filter(|&t| t <= REST_MAX_SHARE * shortest)
         .map(|tau| {
             let mut c = cur.clone();
             c.effects.push(Effect::RestRelaxation);
