@@ -297,8 +297,12 @@ fn main() {
         }
         let mut fa = 0;
         for _ in 0..n {
-            if !run(&sv, &pv, seed).found.is_empty() {
+            let found = run(&sv, &pv, seed).found;
+            if !found.is_empty() {
                 fa += 1;
+                if std::env::var("TIPFORGE_DISCOVERY_VERBOSE").is_ok() {
+                    eprintln!("{label}: null seed {seed}: {found:?}");
+                }
             }
             seed += 10;
         }

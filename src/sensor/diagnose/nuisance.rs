@@ -57,7 +57,7 @@ pub(super) fn try_gains(d: &Design, trials: &[Trial], cur: &Config, cur_score: &
 pub const REST_MAX_SHARE: f64 = 1.0 / 3.0;
 
 /// The rest relaxation's time constants tried (s), up to [`REST_MAX_SHARE`] of the shortest trial.
-pub const REST_TAUS_S: [f64; 5] = [10.0, 30.0, 100.0, 300.0, 1000.0];
+pub const REST_TAUS_S: [f64; 9] = [10.0, 20.0, 35.0, 60.0, 100.0, 170.0, 300.0, 500.0, 1000.0];
 
 /// The rest relaxation's candidates: one per time constant up to a third of the shortest trial
 /// (with two trials or more; it competes with the physics terms in the forward selection).
