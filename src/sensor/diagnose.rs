@@ -1587,6 +1587,109 @@ fn confidence(dbic: f64, gain: f64) -> &'static str {
     }
 }
 
+/// What the forward step needs to propose a term: the design, the trials, the levels, the clip
+/// and the median first-order τ (the second relaxation's grid is relative to it).
+struct Ctx<'a> {
+    d: &'a Design,
+    trials: &'a [Trial],
+    hat: &'a Hat,
+    clip: Option<f64>,
+    clip_steps: &'a ClipSteps,
+    med_tau: f64,
+}
+
+/// The model `cur` with effect `e` added, its shape parameters chosen on the training fit (not on
+/// held-out data): the second relaxation's τ2 and drive on their grid, a clip at the recording's
+/// level, a rest relaxation's τ; a second relaxation already in the model has its τ2 refitted.
+fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
+    let (d, trials, hat, clip, clip_steps, med_tau) = (ctx.d, ctx.trials, ctx.hat, ctx.clip, ctx.clip_steps, ctx.med_tau);
+    let cands: Vec<Config> = match e {
+        Effect::RestRelaxation => nuisance::rest_candidates(d, trials, cur),
+        Effect::SecondTimeConstant => [Drive::Change, Drive::Size]
+            .iter()
+            .flat_map(|&drive| TAU2_GRID.iter().map(move |m| (drive, m)))
+            .map(|(drive, m)| {
+                let mut c = cur.clone();
+                c.effects.push(e);
+                c.tau2 = m * med_tau;
+                c.drive = drive;
+                c
+            })
+            .collect(),
+        Effect::Saturation => {
+            let mut c = cur.clone();
+            c.effects.push(e);
+            c.clip = clip;
+            c.tau_fixed = clip.map(|level| clip_fixes(trials, level, clip_steps)).unwrap_or_default();
+            c.restart = clip_steps.from.clone();
+            vec![c]
+        }
+        _ => {
+            let mut c = cur.clone();
+            c.effects.push(e);
+            vec![c]
+        }
+    };
+    // shape parameters are chosen on the training fit (not on held-out data)
+    let mut pick: Option<(Config, f64)> = None;
+    for c in cands {
+        if let Some((b, xc)) = train_bic(d, trials, &c, hat) {
+            // a response to the size of the change has one sign after loading and
+            // unloading alike; opposite signs are the change's own (signed) relaxation
+            if e == Effect::SecondTimeConstant && c.drive == Drive::Size {
+                let k = term_col(d, &c, e);
+                if xc[k] * xc[k + 1] <= 0.0 {
+                    continue;
+                }
+            }
+            if pick.as_ref().is_none_or(|p| b < p.1) {
+                pick = Some((c, b));
+            }
+        }
+    }
+    let (mut c, mut b0) = pick?;
+    // a second relaxation already in the model: its τ2 is refitted with the new term (a
+    // term left out biases it — drift lengthens τ2), by a local search on the grid
+    if e != Effect::SecondTimeConstant && c.effects.contains(&Effect::SecondTimeConstant) {
+        loop {
+            let mut moved = false;
+            for f in [1.0 / TAU2_STEP, TAU2_STEP] {
+                let mut cand = c.clone();
+                cand.tau2 *= f;
+                if cand.tau2 < TAU2_GRID[0] * med_tau * 0.99 || cand.tau2 > TAU2_GRID[TAU2_GRID.len() - 1] * med_tau * 1.01 {
+                    continue;
+                }
+                if let Some((b, _)) = train_bic(d, trials, &cand, hat) {
+                    if b < b0 {
+                        (c, b0, moved) = (cand, b, true);
+                        break;
+                    }
+                }
+            }
+            if !moved {
+                break;
+            }
+        }
+    }
+    Some(c)
+}
+
+/// The model `cur` without its `idx`-th effect (a clip's fixed steps and a rest relaxation's τ
+/// go with it).
+fn without(cur: &Config, idx: usize) -> Config {
+    let mut c = cur.clone();
+    let e = c.effects.remove(idx);
+    if e == Effect::Saturation {
+        c.clip = None;
+        c.tau_fixed.clear();
+        c.restart.clear();
+    }
+    if e == Effect::RestRelaxation {
+        c.rest_tau = None;
+    }
+    c
+}
+
 /// The diagnosis; with `baseline_only`, only the baseline's score.
 fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool, baseline_only: bool) -> Option<Outcome> {
     let (report, prep) = analyze::analyze(recs, opts);
@@ -1741,74 +1844,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) || e == Effect::Relaxation {
                 continue;
             }
-            let cands: Vec<Config> = match e {
-                Effect::RestRelaxation => nuisance::rest_candidates(&d, &trials, &cur),
-                Effect::SecondTimeConstant => [Drive::Change, Drive::Size]
-                    .iter()
-                    .flat_map(|&drive| TAU2_GRID.iter().map(move |m| (drive, m)))
-                    .map(|(drive, m)| {
-                        let mut c = cur.clone();
-                        c.effects.push(e);
-                        c.tau2 = m * med_tau;
-                        c.drive = drive;
-                        c
-                    })
-                    .collect(),
-                Effect::Saturation => {
-                    let mut c = cur.clone();
-                    c.effects.push(e);
-                    c.clip = clip;
-                    c.tau_fixed = clip.map(|level| clip_fixes(&trials, level, &clip_steps)).unwrap_or_default();
-                    c.restart = clip_steps.from.clone();
-                    vec![c]
-                }
-                _ => {
-                    let mut c = cur.clone();
-                    c.effects.push(e);
-                    vec![c]
-                }
-            };
-            // shape parameters are chosen on the training fit (not on held-out data)
-            let mut pick: Option<(Config, f64)> = None;
-            for c in cands {
-                if let Some((b, xc)) = train_bic(&d, &trials, &c, &hat) {
-                    // a response to the size of the change has one sign after loading and
-                    // unloading alike; opposite signs are the change's own (signed) relaxation
-                    if e == Effect::SecondTimeConstant && c.drive == Drive::Size {
-                        let k = term_col(&d, &c, e);
-                        if xc[k] * xc[k + 1] <= 0.0 {
-                            continue;
-                        }
-                    }
-                    if pick.as_ref().is_none_or(|p| b < p.1) {
-                        pick = Some((c, b));
-                    }
-                }
-            }
-            let Some((mut c, mut b0)) = pick else { continue };
-            // a second relaxation already in the model: its τ2 is refitted with the new term (a
-            // term left out biases it — drift lengthens τ2), by a local search on the grid
-            if e != Effect::SecondTimeConstant && c.effects.contains(&Effect::SecondTimeConstant) {
-                loop {
-                    let mut moved = false;
-                    for f in [1.0 / TAU2_STEP, TAU2_STEP] {
-                        let mut cand = c.clone();
-                        cand.tau2 *= f;
-                        if cand.tau2 < TAU2_GRID[0] * med_tau * 0.99 || cand.tau2 > TAU2_GRID[TAU2_GRID.len() - 1] * med_tau * 1.01 {
-                            continue;
-                        }
-                        if let Some((b, _)) = train_bic(&d, &trials, &cand, &hat) {
-                            if b < b0 {
-                                (c, b0, moved) = (cand, b, true);
-                                break;
-                            }
-                        }
-                    }
-                    if !moved {
-                        break;
-                    }
-                }
-            }
+            let Some(c) = candidate(e, &cur, &Ctx { d: &d, trials: &trials, hat: &hat, clip, clip_steps: &clip_steps, med_tau }) else { continue };
             let Some((s, x)) = score(&d, &trials, &c, &hat) else { continue };
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
             let dbic = s.bic - cur_score.bic;
@@ -1877,16 +1913,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     loop {
         let mut worst: Option<(usize, Config, Score, Vec<f64>, f64)> = None;
         for (idx, e) in cur.effects.iter().enumerate() {
-            let mut c = cur.clone();
-            c.effects.remove(idx);
-            if *e == Effect::Saturation {
-                c.clip = None;
-                c.tau_fixed.clear();
-                c.restart.clear();
-            }
-            if *e == Effect::RestRelaxation {
-                c.rest_tau = None;
-            }
+            let c = without(&cur, idx);
             let Some((s_wo, x_wo)) = score(&d, &trials, &c, &hat) else { continue };
             let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clip_steps.units) } else { paired_z(&s_wo.units, &cur_score.units) };
             let dbic = cur_score.bic - s_wo.bic;
