@@ -11,6 +11,7 @@
 //! recording, leave one step out) with a paired z of at least `MIN_Z` over trial × step units, and
 //! BIC by at least `MIN_DBIC`.
 
+mod alternatives;
 mod normal;
 mod nuisance;
 mod spectrum;
@@ -20,6 +21,7 @@ use super::preprocess::Phase;
 use super::recording::Recording;
 use nalgebra::{DMatrix, DVector};
 use normal::*;
+pub use alternatives::{Alternative, Z_SEPARATE};
 pub use nuisance::NuisanceTerm;
 use serde::Serialize;
 use spectrum::*;
@@ -936,6 +938,11 @@ pub struct Finding {
     pub heldout_rmse_before: f64,
     pub heldout_rmse_after: f64,
     pub delta_bic: f64,
+    /// Other effects whose terms, in this one's place, explain the same residual about as well on
+    /// this data (the drop-one test of `alternatives`); empty when the name stands alone.
+    pub alternatives: Vec<Alternative>,
+    /// With alternatives: the sentence that says the recording cannot tell them apart.
+    pub ambiguity: Option<String>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -1457,6 +1464,8 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
             heldout_rmse_before: given.heldout_rmse,
             heldout_rmse_after: best_score.heldout_rmse,
             delta_bic: dbic,
+            alternatives: vec![],
+            ambiguity: None,
         },
     );
     d.final_.effects.insert(0, "preload_mismatch");
@@ -1883,6 +1892,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                 heldout_rmse_before: cur_score.heldout_rmse,
                 heldout_rmse_after: s.heldout_rmse,
                 delta_bic: dbic,
+                alternatives: vec![],
+                ambiguity: None,
             });
         }
         cur = c;
@@ -1940,6 +1951,16 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         cur_score = s_wo;
         cur_x = x_wo;
     }
+    // honest naming: the other effects that explain each finding's residual about as well
+    for (e, alts) in alternatives::alternatives(&cur, &cur_score, &Ctx { d: &d, trials: &trials, hat: &hat, clip, clip_steps: &clip_steps, med_tau }) {
+        if let Some(f) = findings.iter_mut().find(|f| f.effect == e.name()) {
+            f.ambiguity = alternatives::sentence(f.effect, &alts);
+            if !alts.is_empty() && f.confidence == "high" {
+                f.confidence = "medium";
+            }
+            f.alternatives = alts;
+        }
+    }
     // the relaxation spectrum (issue 15): the exact forms of relaxation (creep, one second time
     // constant) give way to a spectrum over every change when it predicts the held-out data
     // clearly better than the whole model the catalogue found
@@ -1965,6 +1986,14 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                     None => round0_exact.clone(),
                 };
                 let windows = entry_windows(Effect::Relaxation, &d, &trials, &cur_x, &cur, &hat, clip, &report);
+                let mut inherited: Vec<Alternative> = Vec::new();
+                for f in findings.iter().filter(|f| f.effect == Effect::Creep.name() || f.effect == Effect::SecondTimeConstant.name()) {
+                    for a in &f.alternatives {
+                        if !inherited.iter().any(|b| b.effect == a.effect) {
+                            inherited.push(a.clone());
+                        }
+                    }
+                }
                 findings.retain(|f| f.effect != Effect::Creep.name() && f.effect != Effect::SecondTimeConstant.name());
                 let dbic = s.bic - cur_score.bic;
                 findings.push(Finding {
@@ -1976,6 +2005,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                     heldout_rmse_before: cur_score.heldout_rmse,
                     heldout_rmse_after: s.heldout_rmse,
                     delta_bic: dbic,
+                    alternatives: inherited,
+                    ambiguity: None,
                 });
                 cur = c;
                 cur_score = s;
@@ -2017,6 +2048,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                 heldout_rmse_before: cur_score.heldout_rmse,
                 heldout_rmse_after: cur_score.heldout_rmse,
                 delta_bic: 0.0,
+                alternatives: vec![],
+                ambiguity: None,
             });
         }
     }
@@ -2033,6 +2066,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             heldout_rmse_before: base.heldout_rmse,
             heldout_rmse_after: clean.heldout_rmse,
             delta_bic: clean.bic - base.bic,
+            alternatives: vec![],
+            ambiguity: None,
         });
     }
     let remaining = locate(&d, &trials, &cur_x, &cur, &hat);
@@ -2112,6 +2147,12 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     }
     for f in findings.iter_mut().filter(|f| f.effect == Effect::Relaxation.name()) {
         name_spectrum(f, spectrum_exact.as_ref());
+        let own = f.effect;
+        f.alternatives.retain(|a| a.effect != own);
+        f.ambiguity = alternatives::sentence(f.effect, &f.alternatives);
+        if !f.alternatives.is_empty() && f.confidence == "high" {
+            f.confidence = "medium";
+        }
         for n in final_names.iter_mut().filter(|n| **n == Effect::Relaxation.name()) {
             *n = f.effect;
         }

@@ -39,9 +39,10 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
     for f in &d.findings {
         let w = f.windows.first().map(|w| format!(" (e.g. {} {:.1}–{:.1} s)", w.recording, w.start_s, w.end_s)).unwrap_or_default();
         out.push(format!(
-            "{} left out [{} confidence]: {}{}; term: {}; held-out RMSE {} → {} {u}, ΔBIC {:.0}",
+            "{} left out [{} confidence]: {}{}{}; term: {}; held-out RMSE {} → {} {u}, ΔBIC {:.0}",
             f.effect,
             f.confidence,
+            f.ambiguity.as_ref().map(|a| format!("{a}; ")).unwrap_or_default(),
             f.explanation,
             w,
             plain_params(&f.term.params),
@@ -128,7 +129,17 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     for l in summary(d) {
         html += &format!("<li>{}</li>\n", esc(&l));
     }
-    html += "</ul>\n<h2>Where the baseline fails</h2>\n<p>Each catalogue effect's signature and the whiteness test on the baseline's residuals, before any term is chosen.</p>\n<table><tr><th>test</th><th>recording</th><th>window (s)</th><th>statistic</th></tr>\n";
+    html += "</ul>\n";
+    if d.findings.iter().any(|f| !f.alternatives.is_empty()) {
+        html += "<h2>Names the recording cannot separate</h2>\n<p>Each finding's term was dropped and every other catalogue effect put in its place. An alternative explains the same residual held out, and the named model does not predict the held-out units better than it by a paired z of 2.</p>\n<table><tr><th>finding</th><th>its held-out RMSE</th><th>alternative</th><th>held-out RMSE in its place</th><th>paired z, named over it</th></tr>\n";
+        for f in &d.findings {
+            for a in &f.alternatives {
+                html += &format!("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td></tr>\n", f.effect, sig4(f.heldout_rmse_after), a.effect, sig4(a.heldout_rmse), a.z_named_over_this);
+            }
+        }
+        html += "</table>\n";
+    }
+    html += "<h2>Where the baseline fails</h2>\n<p>Each catalogue effect's signature and the whiteness test on the baseline's residuals, before any term is chosen.</p>\n<table><tr><th>test</th><th>recording</th><th>window (s)</th><th>statistic</th></tr>\n";
     for w in &d.located {
         html += &format!("<tr><td>{}</td><td>{}</td><td>{:.1}–{:.1}</td><td>{}</td></tr>\n", w.test, esc(&w.recording), w.start_s, w.end_s, esc(&w.statistic));
     }

@@ -1,0 +1,87 @@
+//! Honest naming (issue 16, item 1): which other effects explain a finding's residual about as
+//! well on this data. For every physics term of the final model, the term is dropped and each other
+//! catalogue effect is put in its place (its shape chosen on the training fit, as in the forward
+//! step). An effect is an alternative when, in that place,
+//! - it passes the rule a term passes against the model without the named term (lower held-out
+//!   error, paired z ≥ MIN_Z), so it explains the residual in its own right, and
+//! - the named model does not predict the held-out units better than it with a paired z of at least
+//!   `Z_SEPARATE`: the data cannot tell the two apart.
+//!
+//! A name stands alone when this drop-one test finds no alternative.
+//!
+//! The relaxation spectrum is not tried in a term's place: on family A it stood in for every term
+//! (a pure second time constant, a hysteresis and a drift each got a spectrum "creep" as an
+//! alternative), since its loading and unloading kernels with long τ take up any slow structure.
+
+use super::*;
+
+/// The paired z over held-out units that separates two explanations of one residual (a one-sided
+/// test at about 2.3 % when the units' differences are near normal).
+pub const Z_SEPARATE: f64 = 2.0;
+
+/// Another effect that explains a finding's residual about as well.
+#[derive(Debug, Clone, Serialize)]
+pub struct Alternative {
+    pub effect: &'static str,
+    /// Held-out RMSE of the final model with this effect in place of the named one.
+    pub heldout_rmse: f64,
+    /// Paired z by which the named model predicts the held-out units better (negative: worse).
+    pub z_named_over_this: f64,
+}
+
+/// The alternatives of every physics term in `cur` (in the order of `cur.effects`).
+pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(Effect, Vec<Alternative>)> {
+    let physics = |e: &Effect| CATALOGUE.contains(e) && *e != Effect::HandlingSpikes && *e != Effect::Relaxation;
+    let mut out = Vec::new();
+    for (idx, &named) in cur.effects.iter().enumerate() {
+        if !physics(&named) {
+            continue;
+        }
+        let wo = without(cur, idx);
+        let Some((s_wo, _)) = score(ctx.d, ctx.trials, &wo, ctx.hat) else { continue };
+        let mut alts = Vec::new();
+        for &e in CATALOGUE.iter().filter(|e| physics(e) && **e != named && !cur.effects.contains(e)) {
+            if e == Effect::Saturation && ctx.clip.is_none() {
+                continue;
+            }
+            let Some(c) = candidate(e, &wo, ctx) else { continue };
+            let Some((s, _)) = score(ctx.d, ctx.trials, &c, ctx.hat) else { continue };
+            let on_clip = |a: &Score, b: &Score| if e == Effect::Saturation { paired_z_on(a, b, &ctx.clip_steps.units) } else { paired_z(&a.units, &b.units) };
+            let explains = s.heldout_rmse < s_wo.heldout_rmse && on_clip(&s_wo, &s) >= MIN_Z;
+            let z_sep = on_clip(&s, cur_score);
+            if explains && z_sep < Z_SEPARATE {
+                alts.push(Alternative { effect: e.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep });
+            }
+        }
+        out.push((named, alts));
+    }
+    out
+}
+
+/// The sentence a reader gets for a finding with alternatives.
+pub fn sentence(effect: &str, alts: &[Alternative]) -> Option<String> {
+    if alts.is_empty() {
+        return None;
+    }
+    let names: Vec<&str> = std::iter::once(effect).chain(alts.iter().map(|a| a.effect)).map(|n| n.trim_end_matches("_term")).collect();
+    let list = match names.len() {
+        2 => format!("{} or {}", names[0], names[1]),
+        _ => format!("{} or {}", names[..names.len() - 1].join(", "), names[names.len() - 1]),
+    };
+    Some(format!("{list}: this recording cannot tell them apart (each explains the residual held out, and none predicts it better by a paired z of {Z_SEPARATE})"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_sentence_names_every_candidate_and_none_without_alternatives() {
+        assert_eq!(sentence("creep", &[]), None);
+        let a = |e| Alternative { effect: e, heldout_rmse: 1.0, z_named_over_this: 0.5 };
+        let s = sentence("creep", &[a("second_time_constant")]).unwrap();
+        assert!(s.starts_with("creep or second_time_constant: this recording cannot tell them apart"), "{s}");
+        let s = sentence("creep", &[a("hysteresis"), a("baseline_drift")]).unwrap();
+        assert!(s.starts_with("creep, hysteresis or baseline_drift:"), "{s}");
+    }
+}
