@@ -449,6 +449,11 @@ def check_rig(name, rig, man, root):
     hits = base.ray_cast([0, 0, 100.0], [0, 0, -100.0])
     floor = 100.0 - hits[0].distance * 200.0
     dome_top = floor + rig["board_thickness_mm"] + rig["dome_height_mm"]
+    # the seat recess is whole layers deep and no shallower than the board (issue 18, item 4)
+    if "layer_height_mm" in rig:
+        depth, lh = rig["base_top_z_mm"] - floor, rig["layer_height_mm"]
+        if abs(depth / lh - round(depth / lh)) > 1e-3 or depth < rig["board_thickness_mm"] - 1e-6:
+            fail("the seat recess must be whole layers deep and hold the whole board", f"{depth:.4f} mm at {lh} mm layers, board {rig['board_thickness_mm']} mm")
     face_z = plunger.bounding_box()[2]
     if abs(face_z - dome_top) > 0.05:
         fail("the frustum face must rest on the dome top (0 +/- 0.05 mm)", f"gap {face_z - dome_top:.4f} mm")

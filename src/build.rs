@@ -189,7 +189,18 @@ pub fn build_job(job: &Job) -> Result<Built> {
         Job::Fingertip(p) => Ok(Built { parts: vec![crate::fingertip::build(p)?], assemblies: vec![], violations: vec![], sections: vec![], notes: vec![] }),
         Job::Rig(p) => {
             let b = crate::rig::build(p)?;
-            Ok(Built { parts: b.parts, assemblies: b.assemblies, violations: b.violations, sections: vec![("rigs", b.manifest)], notes: vec![] })
+            let l = crate::rig::layout(p);
+            let depth = l.base_top - l.seat_floor;
+            let note = format!(
+                "{}: seat recess {:.2} mm deep ({} layers of {} mm); the {} mm board sits {:.2} mm below the base top",
+                p.name,
+                depth,
+                (depth / p.layer_height_mm).round(),
+                p.layer_height_mm,
+                p.sensor.board_thickness_mm,
+                depth - p.sensor.board_thickness_mm
+            );
+            Ok(Built { parts: b.parts, assemblies: b.assemblies, violations: b.violations, sections: vec![("rigs", b.manifest)], notes: vec![note] })
         }
         Job::Mold(p) => {
             let b = crate::mold::build(p)?;

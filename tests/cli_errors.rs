@@ -127,6 +127,7 @@ fn rig_rules_name_the_offending_key() {
         ("plate_diameter_mm = 60.0", "plate_diameter_mm = 30.0", "must carry the weights"),
         ("stem_length_mm = 24.0", "stem_length_mm = 2.0", "cannot hold the plunger vertical"),
         ("max_load_g = 1000.0 ", "stop_gap_mm = 1.5\nmax_load_g = 1000.0 ", "overtravel stop"),
+        ("height_mm = 8.0", "height_mm = 8.1", "base.height_mm = 8.1: is not a whole number of 0.2 mm layers (print.layer_height_mm), so it would print as 8 or 8.2 mm: use 8 or 8.2"),
     ];
     // all at once: every problem in one run
     let d = dir("rig-all");

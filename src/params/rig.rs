@@ -47,6 +47,7 @@ pub struct RawRigPrint {
     pub infill: Option<f64>,
     pub min_wall_mm: Option<f64>,
     pub chordal_tolerance_mm: Option<f64>,
+    pub layer_height_mm: Option<f64>,
 }
 
 static BASE_SCHEMA: Schema = Schema { fields: fields_of::<RawBase>, tables: &[] };
@@ -107,6 +108,8 @@ pub struct RigParams {
     pub plunger: Plunger,
     pub print: Print,
     pub infill: f64,
+    /// The printer's layer height: the seat recess and the tail slot are whole layers deep.
+    pub layer_height_mm: f64,
 }
 
 /// Smallest sliding clearance an FDM printer holds reliably (mm).
@@ -168,6 +171,19 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
     let sdepth = c.positive(p.scale_depth_mm, "plunger.scale_depth_mm", "0.4");
     let print = print_params(c, &RawPrint { density_g_cm3: pr.density_g_cm3, min_wall_mm: pr.min_wall_mm, chordal_tolerance_mm: pr.chordal_tolerance_mm }, 1.2);
     let infill = c.or_within(pr.infill, 1.0, "print.infill", 0.05, 1.0);
+    let layer = c.or_within(pr.layer_height_mm, 0.2, "print.layer_height_mm", 0.04, 0.6);
+    // heights that set a recess or an engraving print as whole layers, or the slicer rounds them
+    if let Some(lh) = layer {
+        for (path, v) in [("base.height_mm", bh), ("plunger.scale_depth_mm", sdepth)] {
+            if let Some(v) = v {
+                let n = v / lh;
+                if (n - n.round()).abs() > 1e-6 {
+                    let (lo, hi) = ((n.floor() * lh * 1e6).round() / 1e6, (n.ceil() * lh * 1e6).round() / 1e6);
+                    c.push(path, v, format!("is not a whole number of {lh} mm layers (print.layer_height_mm), so it would print as {lo} or {hi} mm: use {}{hi}", if lo > 0.0 { format!("{lo} or ") } else { String::new() }));
+                }
+            }
+        }
+    }
     let stiffness = Some(s.dome_stiffness_n_per_mm);
     let max_load = c.or_within(p.max_load_g, 1000.0, "plunger.max_load_g", 0.0, 1.0e5);
     let margin = c.or_within(p.stop_margin_mm, 0.2, "plunger.stop_margin_mm", 0.0, 10.0);
@@ -329,5 +345,6 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
         },
         print: print?,
         infill: infill?,
+        layer_height_mm: layer?,
     })
 }

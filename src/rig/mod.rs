@@ -24,14 +24,22 @@ pub struct Layout {
     pub bore_r: f64,
 }
 
+/// `depth` rounded up to whole layers of `layer` (a recess never shallower than asked: the board
+/// never stands proud of the base).
+pub fn whole_layers(depth: f64, layer: f64) -> f64 {
+    ((depth / layer - 1e-6).ceil() * layer * 1e9).round() / 1e9
+}
+
 pub fn layout(p: &RigParams) -> Layout {
     let base_top = p.base.height_mm;
-    let dome_top = base_top + p.sensor.dome_height_mm;
+    let seat_floor = base_top - whole_layers(p.sensor.board_thickness_mm, p.layer_height_mm);
+    // the board lies on the seat's floor; its dome stands on it
+    let dome_top = seat_floor + p.sensor.board_thickness_mm + p.sensor.dome_height_mm;
     let frustum_top = dome_top + p.plunger.frustum_height_mm;
     let plate_bottom = frustum_top + p.plunger.stem_length_mm;
     Layout {
         base_top,
-        seat_floor: base_top - p.sensor.board_thickness_mm,
+        seat_floor,
         dome_top,
         frustum_top,
         plate_bottom,
@@ -60,7 +68,8 @@ fn base_solid(p: &RigParams, l: &Layout) -> Solid {
     let r_seat = p.sensor.disc_diameter_mm / 2.0 + p.base.seat_clearance_mm;
     let recess = Solid::cylinder([0.0, 0.0, l.seat_floor], UP, p.sensor.board_thickness_mm + 1.0, r_seat, r_seat, segments(r_seat, tol));
     let half = p.sensor.tail_width_mm / 2.0 + p.base.tail_slot_clearance_mm;
-    let slot = Solid::cuboid([0.0, -half, l.base_top - p.sensor.board_thickness_mm - p.base.tail_slot_clearance_mm], [w / 2.0 + 1.0, half, l.base_top]);
+    let slot_depth = whole_layers(p.sensor.board_thickness_mm + p.base.tail_slot_clearance_mm, p.layer_height_mm);
+    let slot = Solid::cuboid([0.0, -half, l.base_top - slot_depth], [w / 2.0 + 1.0, half, l.base_top]);
     // where the slot runs under the guide sleeve, a 45° gable roof: the sleeve prints over it
     // without a bridge or support
     let roof = Solid::hull(&[
@@ -114,7 +123,8 @@ fn sensor_dummy(p: &RigParams, l: &Layout) -> Mesh {
     let rd = p.sensor.disc_diameter_mm / 2.0;
     let rdome = p.sensor.dome_diameter_mm / 2.0;
     let disc = Solid::cylinder([0.0, 0.0, l.seat_floor], UP, p.sensor.board_thickness_mm, rd, rd, segments(rd, tol));
-    let dome = Solid::cylinder([0.0, 0.0, l.base_top - 0.01], UP, p.sensor.dome_height_mm + 0.01, rdome, rdome * 0.8, segments(rdome, tol));
+    let board_top = l.seat_floor + p.sensor.board_thickness_mm;
+    let dome = Solid::cylinder([0.0, 0.0, board_top - 0.01], UP, p.sensor.dome_height_mm + 0.01, rdome, rdome * 0.8, segments(rdome, tol));
     disc.union(&dome).to_mesh()
 }
 
@@ -226,6 +236,8 @@ pub fn build(p: &RigParams) -> Result<Built> {
             "seat_axis": [0.0, 0.0],
             "seat_diameter_mm": 2.0 * r_seat,
             "seat_floor_z_mm": l.seat_floor,
+            "seat_depth_mm": ((l.base_top - l.seat_floor) * 1e6).round() / 1e6,
+            "layer_height_mm": p.layer_height_mm,
             "guide_bore_diameter_mm": 2.0 * l.bore_r,
             "min_wall_mm": p.print.min_wall_mm,
             "chordal_tolerance_mm": p.print.chordal_tolerance_mm,
@@ -272,6 +284,8 @@ pub fn build(p: &RigParams) -> Result<Built> {
             "plunger_print_to_assembled": {"x": [1, 0, 0, 0], "y": [0, -1, 0, 0], "z": [0, 0, -1, l.plate_top]},
             "dome_top_z_mm": l.dome_top,
             "board_thickness_mm": p.sensor.board_thickness_mm,
+            "base_top_z_mm": l.base_top,
+            "layer_height_mm": p.layer_height_mm,
             "dome_height_mm": p.sensor.dome_height_mm,
             "clearance_mm": p.plunger.clearance_mm,
             "stop_gap_mm": p.plunger.stop_gap_mm,
@@ -327,6 +341,34 @@ mod tests {
         let lifted = plunger.translate([0.0, 0.0, 0.2]);
         let v = assembly_checks(&p, &base, &lifted, &l);
         assert!(v.iter().any(|x| x.rule.contains("rest on the dome")), "{v:?}");
+    }
+
+    /// Issue 18, item 4: the seat recess and the tail slot are whole layers deep, never shallower
+    /// than the board (it must not stand proud), and the dome rests where the board does.
+    #[test]
+    fn recesses_are_whole_layers_and_the_board_never_stands_proud() {
+        for layer in [0.2, 0.15, 0.1, 0.3] {
+            let mut p = params();
+            p.layer_height_mm = layer;
+            let l = layout(&p);
+            let depth = l.base_top - l.seat_floor;
+            let n = depth / layer;
+            assert!((n - n.round()).abs() < 1e-9, "layer {layer}: depth {depth}");
+            assert!(depth >= p.sensor.board_thickness_mm - 1e-9 && depth < p.sensor.board_thickness_mm + layer, "layer {layer}: depth {depth}");
+            assert!((l.dome_top - (l.seat_floor + p.sensor.board_thickness_mm + p.sensor.dome_height_mm)).abs() < 1e-12);
+            // the slot, measured on the built base: a probe at the slot's floor plus half a layer
+            // is in the cut, half a layer lower is in the solid
+            let base = base_solid(&p, &l);
+            let slot_floor = l.base_top - whole_layers(p.sensor.board_thickness_mm + p.base.tail_slot_clearance_mm, layer);
+            let sd = (l.base_top - slot_floor) / layer;
+            assert!((sd - sd.round()).abs() < 1e-9);
+            let probe = |z: f64| base.contains([p.base.width_mm / 2.0 - 1.0, 0.0, z], 100.0);
+            assert!(!probe(slot_floor + layer / 2.0) && probe(slot_floor - layer / 2.0), "layer {layer}: slot floor {slot_floor}");
+        }
+        // at 0.2 mm the 0.3 mm board gets a 0.4 mm recess
+        let p = params();
+        let l = layout(&p);
+        assert!((l.base_top - l.seat_floor - 0.4).abs() < 1e-9);
     }
 
     #[test]
