@@ -68,5 +68,9 @@ fn fit_with_actuator_excludes_no_handling_spikes() {
     let machine = tipforge(&["fit", s(real), "--actuator", "--out", s(&d.join("b"))]);
     assert!(!by_hand.contains(" 0 handling spike(s) excluded"), "{by_hand}");
     assert!(machine.contains(" 0 handling spike(s) excluded"), "{machine}");
+    // every step of the strip goes 0 → 12: no k or τ against the load to plot (a fashion plot of
+    // one load was drawn before, its points on the axis)
+    assert!(!d.join("b/plots/fashion.png").exists() && d.join("b/plots/steps-loading.png").exists());
+    assert!(!listed(&d.join("b")).iter().any(|f| f.contains("fashion")));
     let _ = std::fs::remove_dir_all(&d);
 }

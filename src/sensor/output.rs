@@ -93,6 +93,13 @@ pub fn stage(report: &Report, prep: &Prepared, method: Method, dir: &Path) -> St
             st.add(dir.join(format!("plots/steps-{}.png", phase_name(phase))), plot::render(&charts, 3, 520, 340));
         }
     }
-    st.add(dir.join("plots/fashion.png"), plot::render(&fashion_charts(report), 2, 620, 400));
+    // k and τ against the load need steps to at least two loads (a recording that repeats one
+    // step, as a strip on an actuator does, has nothing to plot against the load)
+    let mut loads: Vec<f64> = report.steps.iter().filter(|s| s.phase == Phase::Loading).map(|s| s.after).collect();
+    loads.sort_by(f64::total_cmp);
+    loads.dedup();
+    if loads.len() >= 2 {
+        st.add(dir.join("plots/fashion.png"), plot::render(&fashion_charts(report), 2, 620, 400));
+    }
     st
 }
