@@ -14,6 +14,7 @@
 mod alternatives;
 mod normal;
 mod nuisance;
+mod select;
 mod spectrum;
 
 use super::analyze::{self, Options, Prepared, Report};
@@ -24,6 +25,7 @@ use normal::*;
 pub use alternatives::{Alternative, Z_SEPARATE};
 pub use nuisance::NuisanceTerm;
 use serde::Serialize;
+use select::Selected;
 use spectrum::*;
 
 /// A term must improve held-out prediction with a paired z of at least this over units.
@@ -1752,7 +1754,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         .collect();
     let d = Design { loads: loads.clone(), n_trials: trials.len(), n_keys, refit_onset, prior: sim.is_some(), exact_shape: false };
     // levels per load for the terms built on them (two-stage): from a first fit, or the simulator's
-    let mut hat = match sim {
+    let hat = match sim {
         Some(sb) => {
             let kind = recs[0].protocol_kind;
             let level = loads.iter().map(|&l| kind.grams(l).map(|g| sb.sensor.v_eq((g + sb.preload_g) / 1000.0 * super::sim::G_N_PER_KG)).unwrap_or(0.0)).collect();
@@ -1828,129 +1830,9 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
         super::preprocess::median(&mut t)
     };
-    let mut cur = base_cfg.clone();
-    let (mut cur_score, mut cur_x) = (clean.clone(), xc.clone());
-    // nuisances of the set-up first, so that no physics term stands in for them
-    let mut nuisances = Vec::new();
-    if let Some((c, s, x, nt)) = nuisance::try_gains(&d, &trials, &cur, &cur_score, &hat) {
-        cur = c;
-        cur_score = s;
-        cur_x = x;
-        nuisances.push(nt);
-    }
-    // what a term is judged against when the others must stand without it
-    let floor = cur_score.clone();
+    let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, hat, mut findings, mut decisions, mut nuisances, round0_exact } =
+        select::select(&base_cfg, clean.clone(), xc.clone(), hat, &Ctx { d: &d, trials: &trials, hat: &Hat::default(), clip, clip_steps: &clip_steps, med_tau }, &report);
     let mut spectrum_exact: Option<Exact> = None;
-    let mut round0_exact: Option<Exact> = None;
-    let mut findings = Vec::new();
-    let mut decisions = Vec::new();
-    for round in 0..=CATALOGUE.len() {
-        let mut best: Option<(Effect, Config, Score, Vec<f64>)> = None;
-        // the exact form (creep, one second relaxation) that predicts held-out data best this round
-        let mut exact: Option<Exact> = None;
-        for &e in CATALOGUE.iter().chain([&Effect::RestRelaxation]) {
-            // the spectrum is tried once the catalogue's model stands (below)
-            if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) || e == Effect::Relaxation {
-                continue;
-            }
-            let Some(c) = candidate(e, &cur, &Ctx { d: &d, trials: &trials, hat: &hat, clip, clip_steps: &clip_steps, med_tau }) else { continue };
-            let Some((s, x)) = score(&d, &trials, &c, &hat) else { continue };
-            let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
-            let dbic = s.bic - cur_score.bic;
-            // a clip can only change the units that reach it: its evidence is tested there
-            let z = if e == Effect::Saturation { paired_z_on(&cur_score, &s, &clip_steps.units) } else { paired_z(&cur_score.units, &s.units) };
-            decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
-            if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
-                exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
-            }
-            // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN
-            let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { 0.0 };
-            if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
-                best = Some((e, c, s, x));
-            }
-        }
-        if round == 0 {
-            round0_exact = exact;
-        }
-        let Some((e, c, s, x)) = best else { break };
-        if let Some(dc) = decisions.iter_mut().rev().find(|dc| dc.step == round && dc.candidate == e.name()) {
-            dc.accepted = true;
-        }
-        let windows = entry_windows(e, &d, &trials, &cur_x, &cur, &hat, clip, &report);
-        let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
-        let dbic = s.bic - cur_score.bic;
-        let params = term_params(&d, &c, &x, e, &hat);
-        if e == Effect::RestRelaxation {
-            nuisances.push(nuisance::as_nuisance(e, params, &cur_score, &s, z_of(&decisions, round, e)));
-        } else {
-            findings.push(Finding {
-                effect: e.name(),
-                confidence: confidence(dbic, gain),
-                explanation: if e == Effect::SecondTimeConstant { c.drive.explanation().to_string() } else { e.explanation().to_string() },
-                windows,
-                term: Term { name: format!("{}_term", e.name()), params },
-                heldout_rmse_before: cur_score.heldout_rmse,
-                heldout_rmse_after: s.heldout_rmse,
-                delta_bic: dbic,
-                alternatives: vec![],
-                ambiguity: None,
-            });
-        }
-        cur = c;
-        cur_score = s;
-        cur_x = x;
-        // the terms are built on the levels (two-stage): take them from the model with its terms
-        // (the baseline's levels have absorbed part of the effects), and refit
-        if !d.prior {
-            for _ in 0..2 {
-                let mut level = vec![0.0];
-                level.extend(cur_x[d.n_trials..d.n_levels()].iter().copied());
-                let next = Hat { loads: loads.clone(), level };
-                let Some((s2, x2)) = score(&d, &trials, &cur, &next) else { break };
-                hat = next;
-                cur_score = s2;
-                cur_x = x2;
-            }
-            if let (Some(f), false) = (findings.last_mut(), e == Effect::RestRelaxation) {
-                f.heldout_rmse_after = cur_score.heldout_rmse;
-            }
-        }
-    }
-    // backward check: every kept term must still pass the rule given all the others (a term taken
-    // early can be made redundant by a later, better one — drift standing in for hysteresis). A
-    // term is dropped only when the others stand without it: the model without it must itself pass
-    // the rule against the baseline (or be the baseline); terms that only explain the data
-    // together are kept together.
-    loop {
-        let mut worst: Option<(usize, Config, Score, Vec<f64>, f64)> = None;
-        for (idx, e) in cur.effects.iter().enumerate() {
-            let c = without(&cur, idx);
-            let Some((s_wo, x_wo)) = score(&d, &trials, &c, &hat) else { continue };
-            let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clip_steps.units) } else { paired_z(&s_wo.units, &cur_score.units) };
-            let dbic = cur_score.bic - s_wo.bic;
-            let passes = z >= MIN_Z && dbic <= MIN_DBIC;
-            let others_stand = c.effects.is_empty() || (paired_z(&floor.units, &s_wo.units) >= MIN_Z && s_wo.bic - floor.bic <= MIN_DBIC && s_wo.heldout_rmse < floor.heldout_rmse);
-            if !passes && others_stand && worst.as_ref().is_none_or(|w| z < w.4) {
-                worst = Some((idx, c, s_wo, x_wo, z));
-            }
-        }
-        let Some((idx, c, s_wo, x_wo, z)) = worst else { break };
-        let gone = cur.effects[idx];
-        decisions.push(Decision {
-            step: decisions.last().map(|d| d.step + 1).unwrap_or(0),
-            candidate: gone.name(),
-            heldout_rmse: s_wo.heldout_rmse,
-            gain: -z,
-            z: -z,
-            delta_bic: s_wo.bic - cur_score.bic,
-            accepted: false,
-        });
-        findings.retain(|f| f.effect != gone.name());
-        nuisances.retain(|n| n.name != gone.name());
-        cur = c;
-        cur_score = s_wo;
-        cur_x = x_wo;
-    }
     // honest naming: the other effects that explain each finding's residual about as well
     for (e, alts) in alternatives::alternatives(&cur, &cur_score, &Ctx { d: &d, trials: &trials, hat: &hat, clip, clip_steps: &clip_steps, med_tau }) {
         if let Some(f) = findings.iter_mut().find(|f| f.effect == e.name()) {
