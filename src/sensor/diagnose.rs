@@ -1847,54 +1847,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     // constant) give way to a spectrum over every change when it predicts the held-out data
     // clearly better than the whole model the catalogue found
     if !d.prior {
-        let step = decisions.last().map(|d| d.step + 1).unwrap_or(0);
-        if let Some((c, s, x, dec)) = try_spectrum(&d, &trials, &cur, &cur_score, &hat, actuator, step) {
-            let (accepted, dec_gain) = (dec.accepted, dec.gain);
-            decisions.push(dec);
-            if accepted {
-                // named after the exact form it replaces that gained most, else the one that
-                // predicted best on the baseline
-                let replaced = findings
-                    .iter()
-                    .filter(|f| f.effect == Effect::Creep.name() || f.effect == Effect::SecondTimeConstant.name())
-                    .max_by(|a, b| (a.heldout_rmse_before - a.heldout_rmse_after).total_cmp(&(b.heldout_rmse_before - b.heldout_rmse_after)));
-                spectrum_exact = match replaced {
-                    Some(f) => Some(Exact {
-                        effect: if f.effect == Effect::Creep.name() { Effect::Creep } else { Effect::SecondTimeConstant },
-                        drive: cur.drive,
-                        tau2_s: cur.tau2,
-                        gain: (f.heldout_rmse_before - f.heldout_rmse_after) / f.heldout_rmse_before.max(1e-300),
-                    }),
-                    None => round0_exact.clone(),
-                };
-                let windows = entry_windows(Effect::Relaxation, &d, &trials, &cur_x, &cur, &hat, clip, &report);
-                let mut inherited: Vec<Alternative> = Vec::new();
-                for f in findings.iter().filter(|f| f.effect == Effect::Creep.name() || f.effect == Effect::SecondTimeConstant.name()) {
-                    for a in &f.alternatives {
-                        if !inherited.iter().any(|b| b.effect == a.effect) {
-                            inherited.push(a.clone());
-                        }
-                    }
-                }
-                findings.retain(|f| f.effect != Effect::Creep.name() && f.effect != Effect::SecondTimeConstant.name());
-                let dbic = s.bic - cur_score.bic;
-                findings.push(Finding {
-                    effect: Effect::Relaxation.name(),
-                    confidence: confidence(dbic, dec_gain),
-                    explanation: Effect::Relaxation.explanation().to_string(),
-                    windows,
-                    term: Term { name: "relaxation_term".into(), params: term_params(&d, &c, &x, Effect::Relaxation, &hat) },
-                    heldout_rmse_before: cur_score.heldout_rmse,
-                    heldout_rmse_after: s.heldout_rmse,
-                    delta_bic: dbic,
-                    alternatives: inherited,
-                    ambiguity: None,
-                });
-                cur = c;
-                cur_score = s;
-                cur_x = x;
-            }
-        }
+        spectrum_exact = replace_exact(&d, &trials, &hat, (&mut cur, &mut cur_score, &mut cur_x), &mut findings, &mut decisions, round0_exact.as_ref(), actuator, clip, &report);
     }
     // the second relaxation's τ2 was chosen on a grid (steps of ×1.371): refined between the grid
     // points around it by golden-section search on the training fit (the same rule that chose it),

@@ -238,3 +238,73 @@ pub(super) fn relax_cv(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) ->
     let (_, cv) = lambda_cv(d, cfg, &parts, None);
     cv.is_finite().then_some(cv)
 }
+
+/// The catalogue model's exact relaxation terms (creep, one second time constant) give way to the
+/// relaxation spectrum over every change when it predicts the held-out data clearly better than
+/// the whole model the catalogue found (`try_spectrum`'s rule). The spectrum's finding replaces
+/// theirs, carries their alternatives and is named after the exact form it replaced that gained
+/// most (returned), else the one that predicted best on the baseline. None: nothing replaced.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn replace_exact(
+    d: &Design,
+    trials: &[Trial],
+    hat: &Hat,
+    (cur, cur_score, cur_x): (&mut Config, &mut Score, &mut Vec<f64>),
+    findings: &mut Vec<Finding>,
+    decisions: &mut Vec<Decision>,
+    round0_exact: Option<&Exact>,
+    actuator: bool,
+    clip: Option<f64>,
+    report: &Report,
+) -> Option<Exact> {
+    let step = decisions.last().map(|d| d.step + 1).unwrap_or(0);
+    if let Some((c, s, x, dec)) = try_spectrum(d, trials, cur, cur_score, hat, actuator, step) {
+        let (accepted, dec_gain) = (dec.accepted, dec.gain);
+        decisions.push(dec);
+        if accepted {
+            // named after the exact form it replaces that gained most, else the one that
+            // predicted best on the baseline
+            let replaced = findings
+                .iter()
+                .filter(|f| f.effect == Effect::Creep.name() || f.effect == Effect::SecondTimeConstant.name())
+                .max_by(|a, b| (a.heldout_rmse_before - a.heldout_rmse_after).total_cmp(&(b.heldout_rmse_before - b.heldout_rmse_after)));
+            let exact = match replaced {
+                Some(f) => Some(Exact {
+                    effect: if f.effect == Effect::Creep.name() { Effect::Creep } else { Effect::SecondTimeConstant },
+                    drive: cur.drive,
+                    tau2_s: cur.tau2,
+                    gain: (f.heldout_rmse_before - f.heldout_rmse_after) / f.heldout_rmse_before.max(1e-300),
+                }),
+                None => round0_exact.cloned(),
+            };
+            let windows = entry_windows(Effect::Relaxation, d, trials, cur_x, cur, hat, clip, report);
+            let mut inherited: Vec<Alternative> = Vec::new();
+            for f in findings.iter().filter(|f| f.effect == Effect::Creep.name() || f.effect == Effect::SecondTimeConstant.name()) {
+                for a in &f.alternatives {
+                    if !inherited.iter().any(|b| b.effect == a.effect) {
+                        inherited.push(a.clone());
+                    }
+                }
+            }
+            findings.retain(|f| f.effect != Effect::Creep.name() && f.effect != Effect::SecondTimeConstant.name());
+            let dbic = s.bic - cur_score.bic;
+            findings.push(Finding {
+                effect: Effect::Relaxation.name(),
+                confidence: confidence(dbic, dec_gain),
+                explanation: Effect::Relaxation.explanation().to_string(),
+                windows,
+                term: Term { name: "relaxation_term".into(), params: term_params(d, &c, &x, Effect::Relaxation, hat) },
+                heldout_rmse_before: cur_score.heldout_rmse,
+                heldout_rmse_after: s.heldout_rmse,
+                delta_bic: dbic,
+                alternatives: inherited,
+                ambiguity: None,
+            });
+            *cur = c;
+            *cur_score = s;
+            *cur_x = x;
+            return exact;
+        }
+    }
+    None
+}
