@@ -14,6 +14,7 @@
 mod alternatives;
 mod normal;
 mod nuisance;
+mod refit;
 mod select;
 mod spectrum;
 
@@ -1913,66 +1914,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         }
     }
     let unexplained = Unexplained { flag: !remaining.is_empty(), evidence };
-    // predictions at every raw sample
-    let mut predictions = Vec::new();
-    let mut buf = Vec::new();
-    // the final refit ("model it and refit"): when terms were chosen, the model is refitted with
-    // every step's onset free as well (part 1 fitted them with the first-order shape the terms
-    // change), and so is the baseline, on the data as given — the two keep the same freedom. During
-    // selection the onsets stay at their part-1 values: free there, they take up part of a term's
-    // shape. Without a term nothing is refitted (the baseline stands).
-    let mut refitted: Option<Vec<Trial>> = None;
-    let mut base_segs: Option<Vec<Trial>> = None;
-    let (xb, cur_x) = if !d.prior && (!cur.effects.is_empty() || refit_always) {
-        let mut cur_r = refit_onsets(&d, &trials, &cur, &hat);
-        // τ2 and the first-order shape depend on each other: τ2 refined on the refitted shape,
-        // and the shape refitted with it
-        if cur.effects.contains(&Effect::SecondTimeConstant) {
-            if let Some((c, _, _)) = cur_r.as_ref().and_then(|(g, _)| refine_tau2(&d, g, &cur, &hat)) {
-                cur = c;
-                cur_r = refit_onsets(&d, &trials, &cur, &hat);
-            }
-        }
-        match (refit_onsets(&d, &base_fit, &base_cfg, &hat0), cur_r) {
-            (Some((gb, xb2)), Some((gc, xc2))) => {
-                base_segs = Some(gb);
-                refitted = Some(gc);
-                // the terms' parameters as in the refitted model
-                for f in findings.iter_mut() {
-                    if let Some(&e) = cur.effects.iter().find(|e| e.name() == f.effect) {
-                        f.term.params = term_params(&d, &cur, &xc2, e, &hat);
-                    }
-                }
-                (xb2, xc2)
-            }
-            _ => (xb.clone(), cur_x.clone()),
-        }
-    } else {
-        (xb.clone(), cur_x.clone())
-    };
-    // moved, not copied: a long recording's trials are large
-    let mut final_trials = refitted.unwrap_or(trials);
-    let mut final_base = base_eval;
-    if let Some(gb) = base_segs {
-        for (tr, g) in final_base.iter_mut().zip(gb) {
-            tr.segs = g.segs;
-        }
-    }
-    // at the raw samples: point values, not filtered-sample averages
-    for tr in final_trials.iter_mut().chain(final_base.iter_mut()) {
-        tr.half_span_s = 0.0;
-    }
-    for (i, (rec, tr)) in recs.iter().zip(&final_trials).enumerate() {
-        let be = &final_base[i];
-        // every sample up to MAX_PREDICTION_ROWS, else every stride-th: a file a person can open
-        let stride = rec.len().div_ceil(MAX_PREDICTION_ROWS).max(1);
-        let time_s: Vec<f64> = rec.time_s.iter().step_by(stride).copied().collect();
-        let measured: Vec<f64> = rec.response.iter().step_by(stride).copied().collect();
-        let baseline: Vec<f64> = time_s.iter().map(|&t| predict(&d, i, be, t, &xb, &base_cfg, &hat0, &mut buf)).collect();
-        let improved: Vec<f64> = time_s.iter().map(|&t| predict(&d, i, tr, t, &cur_x, &cur, &hat, &mut buf)).collect();
-        let windows = findings.iter().flat_map(|f| f.windows.iter()).filter(|w| w.recording == rec.source).map(|w| (w.start_s, w.end_s)).collect();
-        predictions.push(Prediction { stem: rec.stem(), time_s, measured, baseline, improved, windows, stride });
-    }
+    let (cur, cur_x, final_trials, final_base, xb) = refit::final_refit(&d, trials, base_eval, &base_fit, (&base_cfg, &hat0, xb), (cur, cur_x, &hat), &mut findings, refit_always);
+    let predictions = refit::predictions(recs, &d, &final_trials, &final_base, (&base_cfg, &hat0, &xb), (&cur, &hat, &cur_x), &findings);
     let by_unit = unit_errors(&final_base, &base, &cur_score);
     // the spectrum's finding takes the name its fitted shape gives
     let mut final_names: Vec<&'static str> = cur.effects.iter().filter(|e| **e != Effect::RestRelaxation).map(|e| e.name()).collect();
