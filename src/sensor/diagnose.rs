@@ -1702,6 +1702,74 @@ fn without(cur: &Config, idx: usize) -> Config {
     c
 }
 
+/// Where the baseline fails, before any term is chosen: the whiteness test's windows and every
+/// catalogue signature's on the baseline's residuals (the clean fit `xc`).
+fn located_windows(d: &Design, trials: &[Trial], xc: &[f64], base_cfg: &Config, hat: &Hat, clip: Option<f64>, report: &Report) -> Vec<LocatedWindow> {
+    let holds = hold_data(d, trials, xc, base_cfg, hat);
+    let mut all: Vec<LocatedWindow> = locate(d, trials, xc, base_cfg, hat)
+        .into_iter()
+        .map(|w| LocatedWindow { test: "whiteness", recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic })
+        .collect();
+    for e in [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation, Effect::HandlingSpikes] {
+        all.extend(signature(e, &holds, trials, clip, report).into_iter().map(|w| LocatedWindow {
+            test: e.name(),
+            recording: w.recording,
+            start_s: w.start_s,
+            end_s: w.end_s,
+            statistic: w.statistic,
+        }));
+    }
+    all
+}
+
+/// The findings that are reported, not modelled: a clipped plateau the free levels absorbed (the
+/// plateau is its own evidence: samples piled at one value with no noise on them), and handling
+/// spikes (excluded from every fit; their held-out numbers are the baseline's on the data as given
+/// and without them).
+fn reported_only(trials: &[Trial], cur: &Config, cur_score: &Score, clip: Option<f64>, report: &Report, (base, clean): (&Score, &Score)) -> Vec<Finding> {
+    let mut out = Vec::new();
+    // saturation the free levels absorbed: the clipped plateau is its own evidence (samples piled
+    // at one value with no noise on them)
+    if let (Some(level), false) = (clip, cur.effects.contains(&Effect::Saturation)) {
+        let windows = signature(Effect::Saturation, &[], trials, clip, report);
+        if !windows.is_empty() {
+            out.push(Finding {
+                effect: Effect::Saturation.name(),
+                confidence: "medium",
+                explanation: format!(
+                    "{}; the per-load levels absorb the clip, so held-out prediction cannot improve: the evidence is the plateau itself",
+                    Effect::Saturation.explanation()
+                ),
+                windows,
+                term: Term { name: "saturation_term".into(), params: serde_json::json!({"level": level}) },
+                heldout_rmse_before: cur_score.heldout_rmse,
+                heldout_rmse_after: cur_score.heldout_rmse,
+                delta_bic: 0.0,
+                alternatives: vec![],
+                ambiguity: None,
+            });
+        }
+    }
+    // handling spikes: reported and excluded, never modelled
+    let spikes = signature(Effect::HandlingSpikes, &[], trials, clip, report);
+    if !spikes.is_empty() {
+        let n_spikes = spikes.len();
+        out.push(Finding {
+            effect: Effect::HandlingSpikes.name(),
+            confidence: if spikes.len() >= 2 { "high" } else { "medium" },
+            explanation: Effect::HandlingSpikes.explanation().to_string(),
+            windows: spikes,
+            term: Term { name: "excluded".into(), params: serde_json::json!({"windows_excluded": n_spikes}) },
+            heldout_rmse_before: base.heldout_rmse,
+            heldout_rmse_after: clean.heldout_rmse,
+            delta_bic: clean.bic - base.bic,
+            alternatives: vec![],
+            ambiguity: None,
+        });
+    }
+    out
+}
+
 /// The diagnosis; with `baseline_only`, only the baseline's score.
 fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool, baseline_only: bool) -> Option<Outcome> {
     let (report, prep) = analyze::analyze(recs, opts);
@@ -1805,23 +1873,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     }
     let clip = clip_level(&trials);
     // locate: every test on the baseline's residuals (the clean fit), before any term is chosen
-    let located: Vec<LocatedWindow> = {
-        let holds = hold_data(&d, &trials, &xc, &base_cfg, &hat);
-        let mut all: Vec<LocatedWindow> = locate(&d, &trials, &xc, &base_cfg, &hat)
-            .into_iter()
-            .map(|w| LocatedWindow { test: "whiteness", recording: w.recording, start_s: w.start_s, end_s: w.end_s, statistic: w.statistic })
-            .collect();
-        for e in [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation, Effect::HandlingSpikes] {
-            all.extend(signature(e, &holds, &trials, clip, &report).into_iter().map(|w| LocatedWindow {
-                test: e.name(),
-                recording: w.recording,
-                start_s: w.start_s,
-                end_s: w.end_s,
-                statistic: w.statistic,
-            }));
-        }
-        all
-    };
+    let located = located_windows(&d, &trials, &xc, &base_cfg, &hat, clip, &report);
     let clip_steps = match clip {
         Some(c) => clipped_segments(&trials, c),
         None => ClipSteps { into: vec![], from: vec![], units: vec![] },
@@ -1867,45 +1919,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             f.term.params = term_params(&d, &cur, &cur_x, e, &hat);
         }
     }
-    // saturation the free levels absorbed: the clipped plateau is its own evidence (samples piled
-    // at one value with no noise on them)
-    if let (Some(level), false) = (clip, cur.effects.contains(&Effect::Saturation)) {
-        let windows = signature(Effect::Saturation, &[], &trials, clip, &report);
-        if !windows.is_empty() {
-            findings.push(Finding {
-                effect: Effect::Saturation.name(),
-                confidence: "medium",
-                explanation: format!(
-                    "{}; the per-load levels absorb the clip, so held-out prediction cannot improve: the evidence is the plateau itself",
-                    Effect::Saturation.explanation()
-                ),
-                windows,
-                term: Term { name: "saturation_term".into(), params: serde_json::json!({"level": level}) },
-                heldout_rmse_before: cur_score.heldout_rmse,
-                heldout_rmse_after: cur_score.heldout_rmse,
-                delta_bic: 0.0,
-                alternatives: vec![],
-                ambiguity: None,
-            });
-        }
-    }
-    // handling spikes: reported and excluded, never modelled
-    let spikes = signature(Effect::HandlingSpikes, &[], &trials, clip, &report);
-    if !spikes.is_empty() {
-        let n_spikes = spikes.len();
-        findings.push(Finding {
-            effect: Effect::HandlingSpikes.name(),
-            confidence: if spikes.len() >= 2 { "high" } else { "medium" },
-            explanation: Effect::HandlingSpikes.explanation().to_string(),
-            windows: spikes,
-            term: Term { name: "excluded".into(), params: serde_json::json!({"windows_excluded": n_spikes}) },
-            heldout_rmse_before: base.heldout_rmse,
-            heldout_rmse_after: clean.heldout_rmse,
-            delta_bic: clean.bic - base.bic,
-            alternatives: vec![],
-            ambiguity: None,
-        });
-    }
+    findings.extend(reported_only(&trials, &cur, &cur_score, clip, &report, (&base, &clean)));
     let remaining = locate(&d, &trials, &cur_x, &cur, &hat);
     let mut evidence: Vec<String> = remaining.iter().map(|w| format!("{} {:.1}–{:.1} s: {}", w.recording, w.start_s, w.end_s, w.statistic)).collect();
     if !remaining.is_empty() {
