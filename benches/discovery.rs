@@ -269,6 +269,8 @@ fn main() {
                 p.press_fraction = 0.12
             }),
         ),
+        // drift as an exponential warm-up from each trial's start (issue 15, item 3)
+        ("drift as a 60 s warm-up", Box::new(|s, _| s.effects.drift_warmup_tau_s = 60.0)),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {

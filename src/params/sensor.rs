@@ -30,6 +30,9 @@ pub struct Effects {
     pub second_tau_s: f64,
     /// Baseline drift: linear rate and a slow sinusoidal wander.
     pub drift_v_per_s: f64,
+    /// With a time constant (> 0): the drift is an exponential warm-up from each trial's start,
+    /// rate · τ · (1 − e^(−t/τ)), with the same initial rate; 0: linear.
+    pub drift_warmup_tau_s: f64,
     pub wander_v: f64,
     pub wander_period_s: f64,
     /// Output clipped at this voltage (0 = off).
@@ -116,7 +119,7 @@ static COVER: Schema = Schema { fields: || &["dome_stiffness_n_per_mm", "contact
 static CREEP: Schema = Schema { fields: || &["per_decade", "time_s"], tables: &[] };
 static HYST: Schema = Schema { fields: || &["fraction"], tables: &[] };
 static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
-static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s"], tables: &[] };
+static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s", "warmup_tau_s"], tables: &[] };
 static SAT: Schema = Schema { fields: || &["level_v", "before_noise"], tables: &[] };
 static NUISANCE: Schema = Schema { fields: || &["gain_jitter", "rest_v", "rest_tau_s", "noise_ar_rho", "noise_ar_share"], tables: &[] };
 static SPIKES: Schema = Schema { fields: || &["amplitude_v", "duration_s"], tables: &[] };
@@ -216,6 +219,7 @@ impl SensorParams {
             second_tau_s: num(&mut c, &e("second_time_constant"), "effects.second_time_constant", "tau_s", 8.0, 1e-3, 1e5).unwrap_or(8.0),
             drift_v_per_s: num(&mut c, &e("baseline_drift"), "effects.baseline_drift", "rate_v_per_s", 0.0, -10.0, 10.0).unwrap_or(0.0),
             wander_v: num(&mut c, &e("baseline_drift"), "effects.baseline_drift", "wander_v", 0.0, 0.0, 10.0).unwrap_or(0.0),
+            drift_warmup_tau_s: num(&mut c, &e("baseline_drift"), "effects.baseline_drift", "warmup_tau_s", 0.0, 0.0, 1e6).unwrap_or(0.0),
             wander_period_s: num(&mut c, &e("baseline_drift"), "effects.baseline_drift", "period_s", 300.0, 1.0, 1e6).unwrap_or(300.0),
             saturation_v: num(&mut c, &e("saturation"), "effects.saturation", "level_v", 0.0, 0.0, 48.0).unwrap_or(0.0),
             spike_v: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "amplitude_v", 0.0, 0.0, 48.0).unwrap_or(0.0),

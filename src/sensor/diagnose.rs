@@ -117,6 +117,9 @@ struct Config {
     /// A relaxation per trial from its first sample, with this time constant: what the sample
     /// brings from before the recording (how long it rested), a nuisance like the gains.
     rest_tau: Option<f64>,
+    /// Baseline drift as an exponential warm-up with this time constant from each trial's start
+    /// (shared by the trials, as the rate is); None: linear (the warm-up's limit of long τ).
+    drift_tau: Option<f64>,
 }
 
 /// The relaxation spectrum's shape: kernels on a log grid of τ, driven by the load as applied (a
@@ -310,7 +313,7 @@ impl Design {
                 Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Hysteresis => out[col] = cur.map(|s| catalogue::hysteresis::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, &active, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
-                Effect::BaselineDrift => out[col] = catalogue::baseline_drift::column(t, tr.t[0]),
+                Effect::BaselineDrift => out[col] = catalogue::baseline_drift::column(t, tr.t[0], cfg.drift_tau),
                 Effect::Relaxation => {
                     if let Some(rx) = &cfg.relax {
                         relax_columns(i, tr, &steps, t, rx, &mut out[col..col + rx.cols()]);
@@ -542,7 +545,10 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
             serde_json::json!({"drive": c.drive.label(), "after_loading_fraction": at(k), "after_unloading_fraction": at(k + 1), "tau2_s": c.tau2, "jump_after_loading_full_change": at(k) * span.abs(), "jump_after_unloading_full_change": at(k + 1) * span.abs()})
         }
         Effect::SecondTimeConstant => serde_json::json!({"drive": c.drive.label(), "fraction": at(k), "tau2_s": c.tau2}),
-        Effect::BaselineDrift => serde_json::json!({"rate_per_s": at(k)}),
+        Effect::BaselineDrift => match c.drift_tau {
+            Some(tau) => serde_json::json!({"form": "exponential warm-up", "initial_rate_per_s": at(k), "warmup_tau_s": tau, "amplitude": at(k) * tau}),
+            None => serde_json::json!({"rate_per_s": at(k)}),
+        },
         Effect::Saturation => serde_json::json!({"level": c.clip}),
         Effect::HandlingSpikes => serde_json::json!({}),
         Effect::Relaxation => {
@@ -1628,6 +1634,20 @@ fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
                 c
             })
             .collect(),
+        Effect::BaselineDrift => {
+            // linear, or a warm-up on a log grid of τ up to the longest trial (a longer one is a
+            // line over the recording)
+            let longest = trials.iter().map(|tr| tr.t.last().copied().unwrap_or(0.0) - tr.t.first().copied().unwrap_or(0.0)).fold(0.0, f64::max);
+            std::iter::once(None)
+                .chain(catalogue::baseline_drift::WARMUP_TAUS_S.iter().filter(|&&tau| tau <= longest).map(|&tau| Some(tau)))
+                .map(|tau| {
+                    let mut c = cur.clone();
+                    c.effects.push(e);
+                    c.drift_tau = tau;
+                    c
+                })
+                .collect()
+        }
         Effect::Saturation => {
             let mut c = cur.clone();
             c.effects.push(e);
@@ -1841,6 +1861,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                 relax: None,
                 gains: false,
                 rest_tau: None,
+                drift_tau: None,
             };
             let rows = all_rows(&trials);
             let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
@@ -1852,7 +1873,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     let hat0 = hat.clone();
     // the baseline: first-order steps with their levels and time constants refitted jointly
     let base_cfg =
-        Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None, gains: false, rest_tau: None };
+        Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None, gains: false, rest_tau: None, drift_tau: None };
     // fitted to the series as given (with the steps fitted to it), scored on the series without
     // the spikes (with the same steps); the diagnosis works on the latter, and the spikes are
     // reported and excluded below

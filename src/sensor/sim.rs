@@ -209,7 +209,8 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         } else {
             0.0
         };
-        let drift = e.drift_v_per_s * tk + e.wander_v * (2.0 * std::f64::consts::PI * tk / e.wander_period_s).sin();
+        let ramp = if e.drift_warmup_tau_s > 0.0 { e.drift_warmup_tau_s * (1.0 - (-tk / e.drift_warmup_tau_s).exp()) } else { tk };
+        let drift = e.drift_v_per_s * ramp + e.wander_v * (2.0 * std::f64::consts::PI * tk / e.wander_period_s).sin();
         let rest = if rest_amp != 0.0 { rest_amp * (-tk / nu.rest_tau_s).exp() } else { 0.0 };
         let mut v = first + creep_now + drift - v_cov + rest;
         if e.spike_v > 0.0 {

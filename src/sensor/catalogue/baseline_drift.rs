@@ -2,16 +2,25 @@
 //!
 //! Signature: the level at zero load over time — the residual mean of each trial's last zero-load
 //! hold against its first, in standard errors.
-//! Term: a linear trend in time from the trial's start.
-//! Physics: thermal or electronic drift.
+//! Term: a linear trend in time from the trial's start, or an exponential warm-up from it,
+//! τ (1 − e^(−t/τ)) (its initial rate is the coefficient; long τ is the line), shared by the trials.
+//! Physics: thermal or electronic drift; a warm-up is the read-out settling after power-on.
 
 use super::{offset_z, sig3, Hold, Located, MIN_SIGNATURE_Z};
 
-pub const EXPLANATION: &str = "a load-independent offset changes steadily with time (thermal or electronic drift), modelled as a linear trend";
+pub const EXPLANATION: &str = "a load-independent offset changes steadily with time (thermal or electronic drift), modelled as a linear trend, or as an exponential warm-up from each trial's start, shared by the trials";
 
-/// The term's column at time t of a trial that starts at `t_start`.
-pub fn column(t: f64, t_start: f64) -> f64 {
-    t - t_start
+/// Warm-up time constants tried (s), chosen on the training fit with the linear form.
+pub const WARMUP_TAUS_S: [f64; 6] = [20.0, 40.0, 80.0, 160.0, 320.0, 640.0];
+
+/// The term's column at time t of a trial that starts at `t_start`: linear, or a warm-up with
+/// time constant `warmup_tau`.
+pub fn column(t: f64, t_start: f64, warmup_tau: Option<f64>) -> f64 {
+    let dt = t - t_start;
+    match warmup_tau {
+        Some(tau) => tau * (1.0 - (-dt / tau).exp()),
+        None => dt,
+    }
 }
 
 /// Per trial: the zero-load holds (the lowest load) when the last one's residual has moved from
@@ -56,6 +65,8 @@ mod tests {
         let run = |last: &[f64]| signature(&[super::super::test_hold(&t1, &a, 0.0, 10.0, 0.0, 0.0), super::super::test_hold(&t2, last, 200.0, 210.0, 0.0, 1.0)]).len();
         assert_eq!(run(&moved), 2);
         assert_eq!(run(&b), 0);
-        assert_eq!(column(15.0, 5.0), 10.0);
+        assert_eq!(column(15.0, 5.0, None), 10.0);
+        // a warm-up starts at the line's slope and levels off at τ
+        assert!((column(5.001, 5.0, Some(40.0)) - 0.001).abs() < 1e-7 && (column(1e4, 0.0, Some(40.0)) - 40.0).abs() < 1e-9);
     }
 }
