@@ -352,3 +352,29 @@ fn a_name_stands_alone_only_when_the_data_separate_it() {
         assert!(s.contains("cannot tell them apart") && s.contains(f.alternatives[0].effect), "{s}");
     }
 }
+
+/// Issue 16, item 5: a resistance recording without divider metadata (clean simulated data, the
+/// divider's voltage turned back into ohms) has noise that grows with the resistance (tenfold at
+/// zero load); it must not be taken for handling spikes (25 false spikes when the issue was filed).
+#[test]
+fn a_resistance_recording_without_divider_metadata_has_no_false_spikes() {
+    let d = std::env::temp_dir().join(format!("tipforge-ohm-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let mut paths = Vec::new();
+    for (k, rec) in case(3000, |_| {}).iter().enumerate() {
+        let mut text = String::from("# sample_rate_hz=100\ntime_s,resistance_ohm,load_g\n");
+        for i in 0..rec.len() {
+            let v = rec.response[i].max(1e-4);
+            text += &format!("{:.4},{:.2},{}\n", rec.time_s[i], 1000.0 * (3.3 - v) / v, rec.protocol[i]);
+        }
+        let p = d.join(format!("r-{}.csv", k + 1));
+        std::fs::write(&p, text).unwrap();
+        paths.push(p);
+    }
+    let recs: Vec<_> = paths.iter().map(|p| tipforge::sensor::recording::read(p).unwrap()).collect();
+    assert_eq!(recs[0].unit, "ohm");
+    let diag = diagnose(&recs, &Default::default()).unwrap();
+    assert!(diag.findings.iter().all(|f| f.effect != "handling_spikes"), "{:?}", diag.findings.iter().map(|f| (f.effect, f.windows.len())).collect::<Vec<_>>());
+    let _ = std::fs::remove_dir_all(&d);
+}
