@@ -78,6 +78,11 @@ enum Cmd {
         /// (a recording can say so itself with a `# loading=actuator` line).
         #[arg(long)]
         actuator: bool,
+        /// Also write a calibrated twin: a sensor file (like params/sensor.toml) that `simulate`
+        /// reads, with the circuit, the fitted conductance law and relaxation, the noise and the
+        /// found terms. Needs a divider recording (vcc_v, r_m_ohm, divider) of at least three loads.
+        #[arg(long, value_name = "FILE.toml")]
+        write_sensor: Option<PathBuf>,
     },
     /// Simulate the rig and sensor: write a recording and its noise-free truth.
     Simulate {
@@ -165,8 +170,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             say!("wrote {} file(s) to {}", s.written.len(), out.display());
             Ok(())
         }
-        Cmd::Diagnose { recordings, out, no_filter, sensor, rig, actuator } => {
-            let s = tipforge::sensor::cli::diagnose(&recordings, !no_filter, &out, sensor.as_deref(), rig.as_deref(), actuator)?;
+        Cmd::Diagnose { recordings, out, no_filter, sensor, rig, actuator, write_sensor } => {
+            let s = tipforge::sensor::cli::diagnose(&recordings, !no_filter, &out, sensor.as_deref(), rig.as_deref(), actuator, write_sensor.as_deref())?;
             for l in &s.lines {
                 say!("{l}");
             }

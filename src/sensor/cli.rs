@@ -238,7 +238,8 @@ pub fn simulate(spec: &SimSpec) -> Result<Vec<PathBuf>> {
 }
 
 /// `tipforge diagnose`: returns the summary lines and the files written.
-pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Path>, rig: Option<&Path>, actuator: bool) -> Result<FitSummary> {
+#[allow(clippy::too_many_arguments)]
+pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Path>, rig: Option<&Path>, actuator: bool, write_sensor: Option<&Path>) -> Result<FitSummary> {
     let mut g = Gather::default();
     g.take(out_dir(out))?;
     let bar = Progress::new("diagnose", paths.len() + 2);
@@ -280,11 +281,26 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
             )
         })?;
     super::heldout_guard::check(&d, &recs)?;
+    // the calibrated twin: the fashion curves of the same analysis, the diagnosis's terms
+    let twin = match write_sensor {
+        Some(path) => {
+            let (report, _) = super::analyze::analyze(&recs, &opts);
+            let text = super::twin::sensor_toml(&d, &report, &recs[0]).map_err(|why| Error::input(&path.display().to_string(), "--write-sensor", "", &why))?;
+            Some((path.to_path_buf(), text))
+        }
+        None => None,
+    };
     // the recordings are the largest thing held: gone before the outputs are built
     drop(recs);
     bar.step(format!("writing {}", out.display()));
     let lines = super::diagnose_out::summary(&d);
     let lock = crate::export::outdir::OutLock::acquire(out)?;
-    let written = super::diagnose_out::stage(&d, out).commit(&lock)?;
+    let mut written = super::diagnose_out::stage(&d, out).commit(&lock)?;
+    if let Some((path, text)) = twin {
+        // whole or not at all: a temporary name beside it, then a rename
+        let tmp = path.with_extension(format!("toml.tmp-{}", std::process::id()));
+        std::fs::write(&tmp, text).and_then(|_| std::fs::rename(&tmp, &path)).map_err(|e| Error::input(&path.display().to_string(), "--write-sensor", "", &format!("cannot write the sensor file: {e}")))?;
+        written.push(path);
+    }
     Ok(FitSummary { lines, written })
 }

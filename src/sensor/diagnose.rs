@@ -979,6 +979,11 @@ pub struct Final {
     pub units_scored: usize,
     /// The held-out RMSE of every unit, baseline and improved.
     pub heldout_by_unit: Vec<UnitError>,
+    /// The improved model's first-order part (what a twin is calibrated from): the level at every
+    /// load (the trials' mean offset plus the shared level), and every step's refitted time
+    /// constant with the load it goes to. Empty with a simulator baseline.
+    pub levels: Vec<[f64; 2]>,
+    pub taus: Vec<[f64; 2]>,
 }
 
 /// One held-out unit's error: the hold from `start_s` (the step's onset; the trial's start for
@@ -1790,6 +1795,16 @@ fn reported_only(trials: &[Trial], cur: &Config, cur_score: &Score, clip: Option
     out
 }
 
+/// The first-order part of a solved model: (load, level) for every load (the trials' mean offset
+/// plus the shared level) and (load, τ) for every step.
+fn first_order_part(d: &Design, x: &[f64], trials: &[Trial]) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+    let n = d.n_trials;
+    let offset = x.iter().take(n).sum::<f64>() / n.max(1) as f64;
+    let levels = d.loads.iter().enumerate().map(|(j, &l)| [l, offset + if j == 0 { 0.0 } else { x.get(n + j - 1).copied().unwrap_or(f64::NAN) }]).collect();
+    let taus = trials.iter().flat_map(|tr| tr.segs.iter().map(|sg| [sg.load, sg.tau])).collect();
+    (levels, taus)
+}
+
 /// The diagnosis; with `baseline_only`, only the baseline's score.
 fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool, baseline_only: bool) -> Option<Outcome> {
     let (report, prep) = analyze::analyze(recs, opts);
@@ -1952,6 +1967,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     let (cur, cur_x, final_trials, final_base, xb) = refit::final_refit(&d, trials, base_eval, &base_fit, (&base_cfg, &hat0, xb), (cur, cur_x, &hat), &mut findings, refit_always);
     let predictions = refit::predictions(recs, &d, &final_trials, &final_base, (&base_cfg, &hat0, &xb), (&cur, &hat, &cur_x), &findings);
     let by_unit = unit_errors(&final_base, &base, &cur_score);
+    let (levels, taus) = if d.prior { (vec![], vec![]) } else { first_order_part(&d, &cur_x, &final_trials) };
     // the spectrum's finding takes the name its fitted shape gives
     let mut final_names: Vec<&'static str> = cur.effects.iter().filter(|e| **e != Effect::RestRelaxation).map(|e| e.name()).collect();
     // the nuisances' parameters as in the final model
@@ -1995,6 +2011,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             units_better: by_unit.iter().filter(|u| u.improved_rmse < u.baseline_rmse).count(),
             units_scored: by_unit.len(),
             heldout_by_unit: by_unit,
+            levels,
+            taus,
         },
         findings,
         unexplained,

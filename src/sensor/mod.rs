@@ -15,4 +15,5 @@ pub mod pooling;
 pub mod preprocess;
 pub mod recording;
 pub mod sim;
+pub mod twin;
 pub mod usable;

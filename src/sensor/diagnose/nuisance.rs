@@ -92,3 +92,22 @@ pub(super) fn as_nuisance(e: Effect, params: serde_json::Value, before: &Score, 
         delta_bic: after.bic - before.bic,
     }
 }
+
+/// Whether a per-trial rest relaxation (config `c`, scored `s`) predicts the held-out data better
+/// than the same decay shared by the trials (one amplitude: the drift's warm-up with the rest's τ)
+/// under the rule a nuisance passes (paired z ≥ MIN_Z, gain ≥ MIN_ROBUST_GAIN). Trials that agree
+/// have no nuisance to report; a model with a drift already has its shared form.
+pub(super) fn beats_its_shared_form(d: &Design, trials: &[Trial], c: &Config, s: &Score, hat: &Hat) -> bool {
+    let Some(tau) = c.rest_tau else { return true };
+    if c.effects.contains(&Effect::BaselineDrift) {
+        return true;
+    }
+    let mut shared = c.clone();
+    shared.effects.retain(|e| *e != Effect::RestRelaxation);
+    shared.rest_tau = None;
+    shared.effects.push(Effect::BaselineDrift);
+    shared.drift_tau = Some(tau);
+    let Some((sh, _)) = score(d, trials, &shared, hat) else { return true };
+    let gain = (sh.heldout_rmse - s.heldout_rmse) / sh.heldout_rmse.max(1e-300);
+    gain >= MIN_ROBUST_GAIN && paired_z(&sh.units, &s.units) >= MIN_Z
+}

@@ -61,7 +61,11 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
             }
             // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN
             let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { 0.0 };
-            if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
+            // and a term fitted per trial must beat the same term shared by the trials (the guide's
+            // two hypotheses): a rest relaxation whose trials agree is a warm-up of the read-out,
+            // the drift's
+            let per_trial = e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, &c, &s, &hat);
+            if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && per_trial && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
                 best = Some((e, c, s, x));
             }
         }

@@ -1,0 +1,144 @@
+//! The calibrated twin (issue 16, item 3): a sensor file `simulate` reads, written from a
+//! diagnosis. It carries the read-out circuit (the recording's metadata), the conductance law and
+//! the first-order relaxation (fashion curves through the improved model's levels and refitted
+//! time constants: G = g1 (L + preload)^n, τ = τ0 + τ1 L, turned into the simulator's force units), the noise, and the found terms with
+//! their fitted parameters in the simulator's forms. What the simulator has no form for (a
+//! relaxation spectrum, a second relaxation driven by the size of the change, handling spikes) is
+//! written as a comment that says so.
+
+use super::analyze::Report;
+use super::diagnose::Diagnosis;
+use super::fashion::{self, Readout};
+use super::recording::{Divider, Recording};
+use std::fmt::Write;
+
+/// Newtons per gram of load.
+const N_PER_G: f64 = 9.80665e-3;
+
+/// The sensor file as TOML text, or why it cannot be written (a sentence naming what is missing).
+pub fn sensor_toml(d: &Diagnosis, report: &Report, rec: &Recording) -> Result<String, String> {
+    let m = &rec.meta;
+    let (Some(vcc), Some(rm), Some(div)) = (m.vcc_v, m.r_m_ohm, m.divider) else {
+        return Err("the recording has no divider metadata (# vcc_v=, # r_m_ohm=, # divider=): the twin simulates the divider's voltage".into());
+    };
+    if d.unit != "V" {
+        return Err(format!("the twin simulates a divider voltage; this diagnosis is in {}", d.unit));
+    }
+    // the law from the improved model's first-order part (its levels and time constants are not
+    // biased by the effects its terms carry), else from the baseline's steps
+    let readout = if div == Divider::SensorHigh { Readout::DividerHigh { vcc_v: vcc, r_m_ohm: rm } } else { Readout::DividerLow { vcc_v: vcc, r_m_ohm: rm } };
+    let from_model = {
+        let lv: Vec<(f64, f64)> = d.final_.levels.iter().map(|p| (p[0], p[1])).collect();
+        let ts: Vec<(f64, f64)> = d.final_.taus.iter().map(|p| (p[0], p[1])).collect();
+        fashion::fit(readout, &lv, &ts)
+    };
+    let Some(f) = from_model.as_ref().or(report.fashion.as_ref()) else {
+        return Err("the conductance law needs steps to at least three load levels (the fashion curves): record a staircase of loads".into());
+    };
+    let rate = report.recordings.first().map(|r| r.sample_rate_hz).or(m.sample_rate_hz).unwrap_or(100.0);
+    let sigma = noise_before_adc(d, report, m.adc_bits, m.vref_v.unwrap_or(vcc));
+    // the law in the simulator's units: force in newtons including the preload
+    let g_ref = f.g1 / N_PER_G.powf(f.n);
+    let tau_per_n = f.tau1_s_per_unit / N_PER_G;
+    let tau0 = f.tau0_s - tau_per_n * f.preload * N_PER_G;
+    let mut t = String::new();
+    let _ = writeln!(t, "# tipforge twin: written by `tipforge diagnose --write-sensor` from {}", d.recordings.join(", "));
+    let _ = writeln!(t, "# The first-order part is the fashion curves of the improved model's levels and time constants; the effects are the diagnosis's");
+    let _ = writeln!(t, "# terms with their fitted parameters. Simulate it on the recording's protocol to compare.");
+    let _ = writeln!(t, "kind = \"sensor\"\n\n[circuit]");
+    let _ = writeln!(t, "vcc_v = {vcc}\nr_m_ohm = {rm}\ndivider = \"{}\"", if div == Divider::SensorHigh { "sensor_high" } else { "sensor_low" });
+    let _ = writeln!(t, "adc_bits = {}\nvref_v = {}\nsample_rate_hz = {}", m.adc_bits.unwrap_or(16), m.vref_v.unwrap_or(vcc), fmt(rate));
+    let _ = writeln!(t, "\n[conductance]  # fitted: G = {} S · (F / 1 N)^{}, log-G RMS {}", fmt(g_ref), fmt(f.n), fmt(f.k_log_rms));
+    let _ = writeln!(t, "g_ref_s = {}\nexponent = {}", fmt(g_ref), fmt(f.n));
+    let _ = writeln!(t, "\n[relaxation]  # fitted: τ = τ0 + τ1 · F, RMS {} s", fmt(f.tau_rms_s));
+    let _ = writeln!(t, "tau0_s = {}\ntau_per_n_s = {}", fmt(tau0.max(1e-3)), fmt(tau_per_n));
+    let _ = writeln!(t, "\n[noise]\nsigma_v = {}", fmt(sigma));
+    let _ = writeln!(t, "\n[rig]\npreload_g = {}", fmt(f.preload));
+    effects(&mut t, d);
+    Ok(t)
+}
+
+/// The `[effects.*]` tables: every physics finding in the simulator's form, or a comment.
+fn effects(t: &mut String, d: &Diagnosis) {
+    let num = |p: &serde_json::Value, k: &str| p.get(k).and_then(|v| v.as_f64());
+    let _ = writeln!(t, "\n# effects found by the diagnosis (all others off)");
+    for f in &d.findings {
+        let p = &f.term.params;
+        if f.term.name == "relaxation_spectrum" {
+            let _ = writeln!(t, "# {}: a relaxation spectrum over every change; the simulator has no form for it (not written)", f.effect);
+            continue;
+        }
+        match f.effect {
+            "creep" => {
+                if let Some(v) = num(p, "per_decade_fraction") {
+                    let _ = writeln!(t, "[effects.creep]\nper_decade = {}\ntime_s = {}", fmt(v), fmt(num(p, "time_s").unwrap_or(1.0)));
+                }
+            }
+            "hysteresis" => {
+                if let Some(v) = num(p, "fraction") {
+                    let _ = writeln!(t, "[effects.hysteresis]\nfraction = {}", fmt(v));
+                }
+            }
+            "second_time_constant" => match (num(p, "fraction"), num(p, "tau2_s")) {
+                (Some(v), Some(tau)) => {
+                    let _ = writeln!(t, "[effects.second_time_constant]\nfraction = {}\ntau_s = {}", fmt(v), fmt(tau));
+                }
+                _ => {
+                    let _ = writeln!(t, "# second_time_constant driven by the size of the change: the simulator's is a fraction of each step (not written)");
+                }
+            },
+            "baseline_drift" => match (num(p, "rate_per_s"), num(p, "initial_rate_per_s"), num(p, "warmup_tau_s")) {
+                (Some(r), _, _) => {
+                    let _ = writeln!(t, "[effects.baseline_drift]\nrate_v_per_s = {}", fmt(r));
+                }
+                (None, Some(r), Some(tau)) => {
+                    let _ = writeln!(t, "[effects.baseline_drift]\nrate_v_per_s = {}\nwarmup_tau_s = {}", fmt(r), fmt(tau));
+                }
+                _ => {}
+            },
+            "saturation" => {
+                if let Some(v) = num(p, "level") {
+                    let _ = writeln!(t, "[effects.saturation]\nlevel_v = {}", fmt(v));
+                }
+            }
+            other => {
+                let _ = writeln!(t, "# {other}: not sensor physics, or no simulator form (not written)");
+            }
+        }
+    }
+}
+
+/// A number as TOML reads it back exactly (shortest round-trip form, always with a decimal point
+/// or exponent so it stays a float).
+fn fmt(v: f64) -> String {
+    let s = format!("{v:?}");
+    if s.contains('.') || s.contains('e') || s.contains("inf") || s.contains("NaN") {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+/// The noise the simulator adds before its ADC: the robust spread (1.4826 × MAD) of the raw
+/// samples about the improved model, median over the recordings, less the ADC's quantisation
+/// (LSB² / 12) when the recording states its bits; the analysis's raw estimate without predictions.
+fn noise_before_adc(d: &Diagnosis, report: &Report, bits: Option<u32>, vref: f64) -> f64 {
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    };
+    let mut per: Vec<f64> = d
+        .predictions
+        .iter()
+        .filter(|p| p.stride == 1 && p.measured.len() > 100)
+        .map(|p| {
+            let mut r: Vec<f64> = p.measured.iter().zip(&p.improved).map(|(a, b)| a - b).collect();
+            let mid = median(&mut r.clone());
+            let mut dev: Vec<f64> = r.iter_mut().map(|x| (*x - mid).abs()).collect();
+            1.4826 * median(&mut dev)
+        })
+        .collect();
+    let measured = if per.is_empty() { median(&mut report.recordings.iter().map(|r| r.noise_sigma_raw).collect()) } else { median(&mut per) };
+    let q2 = bits.map(|b| (vref / (1u64 << b.min(62)) as f64).powi(2) / 12.0).unwrap_or(0.0);
+    (measured * measured - q2).max(0.0).sqrt()
+}

@@ -1,0 +1,123 @@
+//! Issue 16, item 3: the calibrated twin. simulate → diagnose --write-sensor → simulate with the
+//! written sensor file: the parameters come back, and the twin's noise-free signal follows the
+//! recording as closely as the improved model predicts held-out data.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use tipforge::params::sensor::SensorParams;
+use tipforge::params::SourceFile;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("tipforge-twin-{}-{}", name, std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn tipforge(args: &[&str]) -> (i32, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_tipforge")).args(args).output().unwrap();
+    (o.status.code().unwrap_or(-1), format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr)))
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn sensor(path: &Path) -> SensorParams {
+    SensorParams::from_source(&SourceFile::parse(s(path), std::fs::read_to_string(path).unwrap()).unwrap()).unwrap()
+}
+
+/// The second column of a CSV (after its # lines and header).
+fn column(path: &Path) -> Vec<f64> {
+    std::fs::read_to_string(path).unwrap().lines().filter(|l| !l.starts_with('#')).skip(1).map(|l| l.split(',').nth(1).unwrap().parse().unwrap()).collect()
+}
+
+fn within(what: &str, got: f64, want: f64, rel: f64) {
+    assert!((got - want).abs() <= rel * want.abs(), "{what}: {got} vs {want} (±{} %)", rel * 100.0);
+}
+
+/// Simulates 3 trials with `edit` applied to params/sensor.toml (preload 20 g), diagnoses them with
+/// --write-sensor, and returns the folder, the twin and the improved model's held-out RMSE.
+fn round_trip(name: &str, seed: u64, edit: &[(&str, &str)]) -> (PathBuf, SensorParams, f64) {
+    let d = dir(name);
+    let mut text = std::fs::read_to_string("params/sensor.toml").unwrap().replace("preload_g = 0.0 ", "preload_g = 20.0 ");
+    for (from, to) in edit {
+        assert!(text.contains(from), "{from}");
+        text = text.replacen(from, to, 1);
+    }
+    std::fs::write(d.join("truth.toml"), text).unwrap();
+    let (code, out) = tipforge(&["simulate", "--sensor", s(&d.join("truth.toml")), "--seed", &seed.to_string(), "--trials", "3", "-o", s(&d.join("rec.csv"))]);
+    assert_eq!(code, 0, "{out}");
+    let recs: Vec<String> = (1..=3).map(|k| s(&d.join(format!("rec-{k}.csv"))).to_string()).collect();
+    let mut args: Vec<&str> = vec!["diagnose"];
+    args.extend(recs.iter().map(|r| r.as_str()));
+    let (out_dir, twin) = (d.join("diag"), d.join("twin.toml"));
+    args.extend(["--out", s(&out_dir), "--write-sensor", s(&twin)]);
+    let (code, out) = tipforge(&args);
+    assert_eq!(code, 0, "{out}");
+    let diag: serde_json::Value = serde_json::from_slice(&std::fs::read(out_dir.join("diagnosis.json")).unwrap()).unwrap();
+    (d.clone(), sensor(&twin), diag["final"]["heldout_rmse"].as_f64().unwrap())
+}
+
+/// The twin simulated on the recording's own protocol and seeds: the RMS of the recording (the
+/// paper's 10-sample mean, as diagnose scores it) against the twin's noise-free signal.
+fn twin_error(d: &Path, seed: u64) -> f64 {
+    let (code, out) = tipforge(&["simulate", "--sensor", s(&d.join("twin.toml")), "--seed", &seed.to_string(), "--trials", "3", "-o", s(&d.join("twin-sim.csv"))]);
+    assert_eq!(code, 0, "{out}");
+    let (mut sum, mut n) = (0.0, 0.0);
+    for k in 1..=3 {
+        let rec = column(&d.join(format!("rec-{k}.csv")));
+        let clean = column(&d.join(format!("truth/twin-sim-{k}.csv")));
+        assert_eq!(rec.len(), clean.len());
+        for i in 0..rec.len() - 10 {
+            let f = rec[i..i + 10].iter().sum::<f64>() / 10.0;
+            sum += (f - clean[i + 5]).powi(2);
+            n += 1.0;
+        }
+    }
+    (sum / n).sqrt()
+}
+
+#[test]
+fn a_twin_carries_the_first_order_part_and_the_found_terms() {
+    let truth_edit = [("fraction = 0.0            # unloading", "fraction = 0.03 # unloading"), ("fraction = 0.0            # share", "fraction = 0.05 # share")];
+    let (d, t, heldout) = round_trip("hyst-tau2", 500, &truth_edit);
+    within("g_ref_s", t.g_ref_s, 1.0e-4, 0.10);
+    within("exponent", t.exponent, 1.0, 0.10);
+    within("tau0_s", t.tau0_s, 0.25, 0.10);
+    within("tau_per_n_s", t.tau_per_n_s, 0.178, 0.10);
+    within("preload_g", t.preload_g, 20.0, 0.10);
+    within("sigma_v", t.noise_v, 0.003, 0.10);
+    within("hysteresis", t.effects.hysteresis, 0.03, 0.10);
+    within("second_fraction", t.effects.second_fraction, 0.05, 0.10);
+    within("second_tau_s", t.effects.second_tau_s, 8.0, 0.10);
+    assert_eq!(t.effects.creep_per_decade, 0.0);
+    let e = twin_error(&d, 500);
+    assert!(e <= 1.1 * heldout, "twin {e} V vs held-out {heldout} V");
+    let _ = std::fs::remove_dir_all(&d);
+
+    let (d, t, heldout) = round_trip("creep-drift", 700, &[("per_decade = 0.0 ", "per_decade = 0.01 "), ("rate_v_per_s = 0.0 ", "rate_v_per_s = 3e-5 ")]);
+    within("creep", t.effects.creep_per_decade, 0.01, 0.10);
+    within("drift", t.effects.drift_v_per_s, 3e-5, 0.10);
+    assert_eq!((t.effects.hysteresis, t.effects.second_fraction), (0.0, 0.0));
+    let e = twin_error(&d, 700);
+    assert!(e <= 1.1 * heldout, "twin {e} V vs held-out {heldout} V");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_twin_needs_the_divider_and_writes_nothing_without_it() {
+    let d = dir("no-divider");
+    let (code, out) = tipforge(&["simulate", "--seed", "9", "--trials", "2", "-o", s(&d.join("rec.csv"))]);
+    assert_eq!(code, 0, "{out}");
+    for k in 1..=2 {
+        let p = d.join(format!("rec-{k}.csv"));
+        let kept: String = std::fs::read_to_string(&p).unwrap().lines().filter(|l| !l.starts_with("# divider") && !l.starts_with("# vcc_v")).map(|l| format!("{l}\n")).collect();
+        std::fs::write(&p, kept).unwrap();
+    }
+    let (code, out) = tipforge(&["diagnose", s(&d.join("rec-1.csv")), s(&d.join("rec-2.csv")), "--out", s(&d.join("diag")), "--write-sensor", s(&d.join("twin.toml"))]);
+    assert_eq!(code, 2, "{out}");
+    assert!(out.contains("--write-sensor") && out.contains("divider metadata"), "{out}");
+    assert!(!d.join("twin.toml").exists());
+    let _ = std::fs::remove_dir_all(&d);
+}
