@@ -7,7 +7,9 @@
 //! - the named model does not predict the held-out units better than it with a paired z of at least
 //!   `Z_SEPARATE`: the data cannot tell the two apart.
 //!
-//! A name stands alone when this drop-one test finds no alternative.
+//! A name stands alone when this drop-one test finds no alternative. A drift that is a warm-up
+//! shared by the trials is also set against the same decay fitted per trial (`rest_relaxation`, a
+//! nuisance): listed when the shared form does not predict better by Z_SEPARATE.
 //!
 //! The relaxation spectrum is not tried in a term's place: on family A it stood in for every term
 //! (a pure second time constant, a hysteresis and a drift each got a spectrum "creep" as an
@@ -51,6 +53,19 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
             let z_sep = on_clip(&s, cur_score);
             if explains && z_sep < Z_SEPARATE {
                 alts.push(Alternative { effect: e.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep });
+            }
+        }
+        // a warm-up drift shared by the trials against the same decay fitted per trial (a
+        // nuisance: how long each trial's sensor rested)
+        if let (Effect::BaselineDrift, Some(tau), None) = (named, cur.drift_tau, cur.rest_tau) {
+            let mut c = wo.clone();
+            c.effects.push(Effect::RestRelaxation);
+            c.rest_tau = Some(tau);
+            if let Some((s, _)) = score(ctx.d, ctx.trials, &c, ctx.hat) {
+                let z_sep = paired_z(&s.units, &cur_score.units);
+                if z_sep < Z_SEPARATE {
+                    alts.push(Alternative { effect: Effect::RestRelaxation.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep });
+                }
             }
         }
         out.push((named, alts));
