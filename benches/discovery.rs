@@ -271,6 +271,8 @@ fn main() {
         ),
         // drift as an exponential warm-up from each trial's start (issue 15, item 3)
         ("drift as a 60 s warm-up", Box::new(|s, _| s.effects.drift_warmup_tau_s = 60.0)),
+        // creep superposed over the load history: it carries over from step to step (item 3)
+        ("creep superposed over the load history", Box::new(|s, _| s.effects.creep_superposed = true)),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {

@@ -23,6 +23,10 @@ pub struct Effects {
     /// Fraction of the equilibrium voltage added per decade of time under constant load.
     pub creep_per_decade: f64,
     pub creep_time_s: f64,
+    /// Creep superposed over the load history (each change adds its own log-time creep, which
+    /// keeps going after later changes: Boltzmann superposition), instead of restarting at every
+    /// step with the previous creep relaxing away at the first-order τ.
+    pub creep_superposed: bool,
     /// Fraction of (V_eq(F_max) − V_eq(F)) kept on the unloading branch.
     pub hysteresis: f64,
     /// Fraction of each step in a second, slower relaxation, and its time constant.
@@ -116,7 +120,7 @@ static RELAX: Schema = Schema { fields: || &["tau0_s", "tau_per_n_s"], tables: &
 static NOISE: Schema = Schema { fields: || &["sigma_v"], tables: &[] };
 static RIG: Schema = Schema { fields: || &["preload_g"], tables: &[] };
 static COVER: Schema = Schema { fields: || &["dome_stiffness_n_per_mm", "contact_diameter_mm", "relax_fraction", "tau_s"], tables: &[] };
-static CREEP: Schema = Schema { fields: || &["per_decade", "time_s"], tables: &[] };
+static CREEP: Schema = Schema { fields: || &["per_decade", "time_s", "superposed"], tables: &[] };
 static HYST: Schema = Schema { fields: || &["fraction"], tables: &[] };
 static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s", "warmup_tau_s"], tables: &[] };
@@ -210,8 +214,17 @@ impl SensorParams {
                 false
             }
         };
+        let superposed = match e("creep").as_ref().and_then(|t| t.get("superposed")) {
+            None => false,
+            Some(toml::Value::Boolean(b)) => *b,
+            Some(v) => {
+                c.push("effects.creep.superposed", v, "use true (each change's creep keeps going after later changes) or false (creep restarts at every step)");
+                false
+            }
+        };
         let eff = Effects {
             saturation_before_noise: before_noise,
+            creep_superposed: superposed,
             creep_per_decade: num(&mut c, &e("creep"), "effects.creep", "per_decade", 0.0, 0.0, 10.0).unwrap_or(0.0),
             creep_time_s: num(&mut c, &e("creep"), "effects.creep", "time_s", 1.0, 1e-3, 1e5).unwrap_or(1.0),
             hysteresis: num(&mut c, &e("hysteresis"), "effects.hysteresis", "fraction", 0.0, 0.0, 1.0).unwrap_or(0.0),

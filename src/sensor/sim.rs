@@ -202,7 +202,19 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         }
         let first = (1.0 - e.second_fraction) * v_fast + e.second_fraction * v_slow;
         // creep: log-time growth under the current load, the previous creep relaxing away
-        creep_now = if e.creep_per_decade > 0.0 {
+        creep_now = if e.creep_per_decade > 0.0 && e.creep_superposed {
+            // every change so far adds its own log-time creep, which keeps going (superposition
+            // over the load history); the change in progress counts from its landing
+            let mut c = 0.0;
+            let mut before = p.v_eq(f0);
+            for st in &steps {
+                let since = (tk - st.t_land_s).max(0.0);
+                let after = p.v_eq(st.force_after_n);
+                c += e.creep_per_decade * (after - before) * (1.0 + since / e.creep_time_s).log10();
+                before = after;
+            }
+            c
+        } else if e.creep_per_decade > 0.0 {
             let since = (tk - t_change).max(0.0);
             let decay = creep_carry * (-since / p.tau(f)).exp();
             decay + e.creep_per_decade * (p.v_eq(f) - p.v_eq(f0)) * (1.0 + since / e.creep_time_s).log10()
