@@ -117,9 +117,6 @@ struct Config {
     /// A relaxation per trial from its first sample, with this time constant: what the sample
     /// brings from before the recording (how long it rested), a nuisance like the gains.
     rest_tau: Option<f64>,
-    /// Creep superposed over the load history (each change's creep keeps going) rather than
-    /// restarting at every step.
-    creep_superposed: bool,
     /// Baseline drift as an exponential warm-up with this time constant from each trial's start
     /// (shared by the trials, as the rate is); None: linear (the warm-up's limit of long τ).
     drift_tau: Option<f64>,
@@ -313,7 +310,6 @@ impl Design {
         let steps = TrialSteps { i, tr, cfg, hat, l0: hat.level_of(self.loads[0]), top: hat.max_level() };
         for e in &cfg.effects {
             match e {
-                Effect::Creep if cfg.creep_superposed => out[col] = cur.map(|s| catalogue::creep::column_superposed(&steps, s, t)).unwrap_or(0.0),
                 Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Hysteresis => out[col] = cur.map(|s| catalogue::hysteresis::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, &active, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
@@ -539,7 +535,7 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
     let span = hat.max_level() - hat.level_of(d.loads[0]);
     let at = |i: usize| x.get(i).copied().unwrap_or(f64::NAN);
     match e {
-        Effect::Creep => serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span, "form": if c.creep_superposed { "superposed over the load history" } else { "restarting at every step" }}),
+        Effect::Creep => serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span}),
         Effect::Hysteresis => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span}),
         Effect::RestRelaxation => {
             let r0 = d.rest_col(c);
@@ -1643,15 +1639,6 @@ fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
                 c
             })
             .collect(),
-        Effect::Creep => [false, true]
-            .into_iter()
-            .map(|superposed| {
-                let mut c = cur.clone();
-                c.effects.push(e);
-                c.creep_superposed = superposed;
-                c
-            })
-            .collect(),
         Effect::BaselineDrift => {
             // linear, or a warm-up on a log grid of τ up to the longest trial (a longer one is a
             // line over the recording)
@@ -1890,7 +1877,6 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
                 gains: false,
                 rest_tau: None,
                 drift_tau: None,
-                creep_superposed: false,
             };
             let rows = all_rows(&trials);
             let x0 = solve(&d, &trials, &rows, &level_cfg, &Hat::default())?;
@@ -1902,7 +1888,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     let hat0 = hat.clone();
     // the baseline: first-order steps with their levels and time constants refitted jointly
     let base_cfg =
-        Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None, gains: false, rest_tau: None, drift_tau: None, creep_superposed: false };
+        Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None, gains: false, rest_tau: None, drift_tau: None };
     // fitted to the series as given (with the steps fitted to it), scored on the series without
     // the spikes (with the same steps); the diagnosis works on the latter, and the spikes are
     // reported and excluded below

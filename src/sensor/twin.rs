@@ -71,8 +71,7 @@ fn effects(t: &mut String, d: &Diagnosis) {
         match f.effect {
             "creep" => {
                 if let Some(v) = num(p, "per_decade_fraction") {
-                    let superposed = p.get("form").and_then(|f| f.as_str()).is_some_and(|f| f.starts_with("superposed"));
-                    let _ = writeln!(t, "[effects.creep]\nper_decade = {}\ntime_s = {}\nsuperposed = {superposed}", fmt(v), fmt(num(p, "time_s").unwrap_or(1.0)));
+                    let _ = writeln!(t, "[effects.creep]\nper_decade = {}\ntime_s = {}", fmt(v), fmt(num(p, "time_s").unwrap_or(1.0)));
                 }
             }
             "hysteresis" => {

@@ -7,7 +7,7 @@
 
 use super::{mean_se, sig3, Hold, Located, Steps, MIN_SIGNATURE_Z};
 
-pub const EXPLANATION: &str = "the response keeps changing slowly under a constant load after the first-order part has settled: the rubber creeps (viscoelastic flow), modelled as a log-time term proportional to the load's level (restarting at every step, or superposed over the load history)";
+pub const EXPLANATION: &str = "the response keeps changing slowly under a constant load after the first-order part has settled: the rubber creeps (viscoelastic flow), modelled as a log-time term proportional to the load's level";
 
 /// The log-time clock's unit (s).
 pub const TIME_S: f64 = 1.0;
@@ -21,14 +21,6 @@ pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
         carry = carry * (-since / s.tau(q)).exp() + s.level(q) * (1.0 + since / TIME_S).log10();
     }
     carry
-}
-
-/// The term's column superposed over the load history: every change so far adds its own log-time
-/// creep, proportional to its change of level, which keeps going after later changes (Boltzmann
-/// superposition: a creep that carries over from step to step and raises the level after an
-/// unloading).
-pub fn column_superposed(s: &impl Steps, cur: usize, t: f64) -> f64 {
-    (0..=cur).map(|q| s.dv(q) * (1.0 + (t - s.t0(q)).max(0.0) / TIME_S).log10()).sum()
 }
 
 /// Holds whose residual trends against log time after 3τ.
