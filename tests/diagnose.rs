@@ -378,3 +378,19 @@ fn a_resistance_recording_without_divider_metadata_has_no_false_spikes() {
     assert!(diag.findings.iter().all(|f| f.effect != "handling_spikes"), "{:?}", diag.findings.iter().map(|f| (f.effect, f.windows.len())).collect::<Vec<_>>());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Issue 16, item 4: the report shows each named term's contribution as a curve. Hysteresis only
+/// acts on the unloading branch: its contribution is nil while the load rises to the top and not
+/// after the first removal.
+#[test]
+fn each_terms_contribution_is_where_its_physics_acts() {
+    let d = diagnose(&case(5000, |s| s.effects.hysteresis = 0.03), &Default::default()).unwrap();
+    assert_eq!(d.findings.first().map(|f| f.effect), Some("hysteresis"));
+    let p = &d.predictions[0];
+    let (_, c) = p.contributions.iter().find(|(n, _)| *n == "hysteresis").expect("hysteresis contribution");
+    assert_eq!(c.len(), p.time_s.len());
+    // the protocol: 10 s at zero, five 20 s holds up (to 110 s), five down
+    let max_in = |a: f64, b: f64| p.time_s.iter().zip(c).filter(|(t, _)| **t >= a && **t < b).map(|(_, v)| v.abs()).fold(0.0, f64::max);
+    let (rising, falling) = (max_in(0.0, 100.0), max_in(135.0, 200.0));
+    assert!(falling > 0.01 && rising < 0.05 * falling, "rising {rising}, falling {falling}");
+}

@@ -1080,6 +1080,9 @@ pub struct Prediction {
     pub windows: Vec<(f64, f64)>,
     /// Samples of the (working-rate) recording per row.
     pub stride: usize,
+    /// Each modelled term's contribution to the improved prediction at these samples (the
+    /// prediction minus the same model with that term's coefficients at zero), with its name.
+    pub contributions: Vec<(&'static str, Vec<f64>)>,
 }
 
 /// A sample beside a jump (a step faster than one sample): where within the sample interval the

@@ -119,6 +119,16 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
                 shade: p.windows.clone(),
             },
         ];
+        let mut charts = charts;
+        if !p.contributions.is_empty() {
+            let series = p
+                .contributions
+                .iter()
+                .enumerate()
+                .map(|(j, (name, c))| Series::line(&contribution_label(d, name), p.time_s.clone(), c.clone(), PALETTE[(j + 2) % PALETTE.len()]))
+                .collect();
+            charts.push(Chart { title: "CONTRIBUTION OF EACH TERM TO THE IMPROVED MODEL".into(), x_label: "TIME S".into(), y_label: d.unit.clone(), series, shade: p.windows.clone() });
+        }
         let name = format!("plots/{}.png", p.stem);
         st.add(dir.join(&name), plot::render(&charts, 1, 1100, 360));
         imgs.push(name);
@@ -163,4 +173,15 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     html += "</body></html>\n";
     st.add(dir.join("report.html"), html.into_bytes());
     st
+}
+
+/// A term's legend: the finding's name (the spectrum's is the name its shape or closest exact form
+/// gives it).
+fn contribution_label(d: &Diagnosis, term: &str) -> String {
+    if term == "relaxation" {
+        let named = d.findings.iter().find(|f| f.term.name == "relaxation_spectrum" || f.term.name == "relaxation_term").map(|f| f.effect).unwrap_or("relaxation");
+        format!("{named} (spectrum)")
+    } else {
+        term.to_string()
+    }
 }

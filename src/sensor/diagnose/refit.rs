@@ -92,7 +92,21 @@ pub(super) fn predictions(
         let baseline: Vec<f64> = time_s.iter().map(|&t| predict(d, i, be, t, xb, base_cfg, hat0, &mut buf)).collect();
         let improved: Vec<f64> = time_s.iter().map(|&t| predict(d, i, tr, t, cur_x, cur, hat, &mut buf)).collect();
         let windows = findings.iter().flat_map(|f| f.windows.iter()).filter(|w| w.recording == rec.source).map(|w| (w.start_s, w.end_s)).collect();
-        predictions.push(Prediction { stem: rec.stem(), time_s, measured, baseline, improved, windows, stride });
+        // each additive term's share: the same model with that term's coefficients at zero (a
+        // clip is not additive, and a rest relaxation is a nuisance)
+        let contributions = cur
+            .effects
+            .iter()
+            .filter(|e| effect_cols(**e, cur) > 0)
+            .map(|&e| {
+                let k = term_col(d, cur, e);
+                let mut x0 = cur_x.to_vec();
+                x0[k..k + effect_cols(e, cur)].iter_mut().for_each(|v| *v = 0.0);
+                let without: Vec<f64> = time_s.iter().map(|&t| predict(d, i, tr, t, &x0, cur, hat, &mut buf)).collect();
+                (e.name(), improved.iter().zip(&without).map(|(a, b)| a - b).collect())
+            })
+            .collect();
+        predictions.push(Prediction { stem: rec.stem(), time_s, measured, baseline, improved, windows, stride, contributions });
     }
     predictions
 }
