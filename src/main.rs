@@ -80,7 +80,8 @@ enum Cmd {
         actuator: bool,
         /// Also write a calibrated twin: a sensor file (like params/sensor.toml) that `simulate`
         /// reads, with the circuit, the fitted conductance law and relaxation, the noise and the
-        /// found terms. Needs a divider recording (vcc_v, r_m_ohm, divider) of at least three loads.
+        /// found terms. Needs a divider recording (vcc_v, r_m_ohm, divider) with a load_g or force_n
+        /// column and at least three loads.
         #[arg(long, value_name = "FILE.toml")]
         write_sensor: Option<PathBuf>,
     },

@@ -340,17 +340,13 @@ fn a_name_stands_alone_only_when_the_data_separate_it() {
     let d = diagnose(&recs, &Default::default()).unwrap();
     let h = d.findings.iter().find(|f| f.effect == "hysteresis").expect("hysteresis named");
     assert!(h.alternatives.is_empty(), "{:?}", h.alternatives);
-    let amb: Vec<_> = d.findings.iter().filter(|f| !f.alternatives.is_empty()).collect();
-    assert!(!amb.is_empty(), "no finding with alternatives: {:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>());
-    for f in amb {
-        assert_ne!(f.confidence, "high");
-        for a in &f.alternatives {
-            assert!(a.z_named_over_this < Z_SEPARATE && a.effect != f.effect, "{a:?}");
-            assert!(d.findings.iter().all(|g| g.effect != a.effect), "an alternative that is itself named: {a:?}");
-        }
-        let s = f.ambiguity.as_deref().unwrap();
-        assert!(s.contains("cannot tell them apart") && s.contains(f.alternatives[0].effect), "{s}");
-    }
+    let f = d.findings.iter().find(|f| f.effect == "second_time_constant").expect("the weak extra second relaxation");
+    let drift = f.alternatives.iter().find(|a| a.effect == "baseline_drift").unwrap_or_else(|| panic!("no drift alternative: {:?}", f.alternatives));
+    assert_ne!(f.confidence, "high");
+    // the drift in its place predicts about as well: within the separation and within 10 %
+    assert!(drift.z_named_over_this.abs() < Z_SEPARATE && (drift.heldout_rmse / f.heldout_rmse_after - 1.0).abs() < 0.10, "{drift:?} vs {}", f.heldout_rmse_after);
+    let s = f.ambiguity.as_deref().unwrap();
+    assert!(s.starts_with("second_time_constant or baseline_drift: this recording cannot tell them apart"), "{s}");
 }
 
 /// Issue 16, item 5: a resistance recording without divider metadata (clean simulated data, the

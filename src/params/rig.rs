@@ -112,6 +112,12 @@ pub struct RigParams {
     pub layer_height_mm: f64,
 }
 
+/// `depth` rounded up to whole layers of `layer` (a recess never shallower than asked: the board
+/// never stands proud of the base).
+pub fn whole_layers(depth: f64, layer: f64) -> f64 {
+    ((depth / layer - 1e-6).ceil() * layer * 1e9).round() / 1e9
+}
+
 /// Smallest sliding clearance an FDM printer holds reliably (mm).
 pub const MIN_CLEARANCE_MM: f64 = 0.15;
 
@@ -291,8 +297,9 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
             c.push("base.sleeve_wall_mm", wall, format!("thinner than the minimum wall {} mm", pr.min_wall_mm));
         }
     }
-    if let (Some(bh), Some(board), Some(pr)) = (bh, board, &print) {
-        if bh - board - 0.2 < pr.min_wall_mm {
+    if let (Some(bh), Some(board), Some(pr), Some(sc), Some(lh)) = (bh, board, &print, slot_c, layer) {
+        // the tail slot is the deepest cut: board + its clearance, in whole layers
+        if bh - whole_layers(board + sc, lh) < pr.min_wall_mm {
             c.push("base.height_mm", bh, format!("leaves less than the minimum wall {} mm under the seat and the tail slot", pr.min_wall_mm));
         }
     }

@@ -24,11 +24,7 @@ pub struct Layout {
     pub bore_r: f64,
 }
 
-/// `depth` rounded up to whole layers of `layer` (a recess never shallower than asked: the board
-/// never stands proud of the base).
-pub fn whole_layers(depth: f64, layer: f64) -> f64 {
-    ((depth / layer - 1e-6).ceil() * layer * 1e9).round() / 1e9
-}
+pub use crate::params::rig::whole_layers;
 
 pub fn layout(p: &RigParams) -> Layout {
     let base_top = p.base.height_mm;

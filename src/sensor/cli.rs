@@ -269,6 +269,9 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
     if sp.is_some() && recs[0].unit != "V" {
         return Err(Error::input(&recs[0].source, "response", recs[0].unit, "--sensor compares voltages: give the divider metadata (vcc_v, r_m_ohm, divider) or a voltage column"));
     }
+    if let Some(path) = write_sensor {
+        twin_preconditions(path, paths, &recs[0])?;
+    }
     let sb = sp.as_ref().map(|s| super::diagnose::SimBaseline { sensor: s, preload_g: preload });
     bar.step("locating, choosing and refitting terms (held out)");
     let d = super::diagnose::diagnose_with(&recs, &opts, sb.as_ref())
@@ -285,7 +288,7 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
     let twin = match write_sensor {
         Some(path) => {
             let (report, _) = super::analyze::analyze(&recs, &opts);
-            let text = super::twin::sensor_toml(&d, &report, &recs[0]).map_err(|why| Error::input(&path.display().to_string(), "--write-sensor", "", &why))?;
+            let text = super::twin::sensor_toml(&d, &report, &recs[0]).map_err(|why| Error::input(&recs[0].source, "--write-sensor", path.display(), why))?;
             Some((path.to_path_buf(), text))
         }
         None => None,
@@ -293,14 +296,55 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
     // the recordings are the largest thing held: gone before the outputs are built
     drop(recs);
     bar.step(format!("writing {}", out.display()));
-    let lines = super::diagnose_out::summary(&d);
+    let mut lines = super::diagnose_out::summary(&d);
     let lock = crate::export::outdir::OutLock::acquire(out)?;
-    let mut written = super::diagnose_out::stage(&d, out).commit(&lock)?;
-    if let Some((path, text)) = twin {
-        // whole or not at all: a temporary name beside it, then a rename
-        let tmp = path.with_extension(format!("toml.tmp-{}", std::process::id()));
-        std::fs::write(&tmp, text).and_then(|_| std::fs::rename(&tmp, &path)).map_err(|e| Error::input(&path.display().to_string(), "--write-sensor", "", &format!("cannot write the sensor file: {e}")))?;
+    // the twin is staged beside its name before the folder is committed, and renamed after: a
+    // twin that cannot be written leaves the folder as it was
+    let staged = match twin {
+        Some((path, text)) => {
+            let tmp = path.with_file_name(format!(".{}.tmp-{}", path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(), std::process::id()));
+            std::fs::write(&tmp, text).map_err(|e| {
+                let _ = std::fs::remove_file(&tmp);
+                Error::input("(file)", "--write-sensor", path.display(), format!("cannot write the sensor file: {e}"))
+            })?;
+            Some((tmp, path))
+        }
+        None => None,
+    };
+    let mut written = match super::diagnose_out::stage(&d, out).commit(&lock) {
+        Ok(w) => w,
+        Err(e) => {
+            if let Some((tmp, _)) = &staged {
+                let _ = std::fs::remove_file(tmp);
+            }
+            return Err(e);
+        }
+    };
+    if let Some((tmp, path)) = staged {
+        std::fs::rename(&tmp, &path).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            Error::input("(file)", "--write-sensor", path.display(), format!("cannot write the sensor file: {e}"))
+        })?;
+        lines.push(format!("twin: wrote {} (simulate --sensor {})", path.display(), path.display()));
         written.push(path);
     }
     Ok(FitSummary { lines, written })
+}
+
+/// What `--write-sensor FILE` needs before the diagnosis runs: a file name in an existing folder,
+/// not a folder, not one of the recordings, and recordings a twin can be written from.
+fn twin_preconditions(path: &Path, inputs: &[PathBuf], rec: &super::recording::Recording) -> Result<()> {
+    let fail = |why: String| Err(Error::input("(file)", "--write-sensor", path.display(), why));
+    if path.is_dir() {
+        return fail("is a folder: give the sensor file's name, e.g. out/twin.toml".into());
+    }
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !parent.is_dir() {
+        return fail(format!("the folder {} does not exist: create it first", parent.display()));
+    }
+    let same = |a: &Path| std::fs::canonicalize(a).ok().zip(std::fs::canonicalize(path).ok()).is_some_and(|(x, y)| x == y);
+    if inputs.iter().any(|i| same(i)) {
+        return fail("is one of the recordings: the twin would overwrite it; give another name".into());
+    }
+    super::twin::can_write(rec).or_else(|why| fail(why))
 }

@@ -1800,11 +1800,25 @@ fn reported_only(trials: &[Trial], cur: &Config, cur_score: &Score, clip: Option
 
 /// The first-order part of a solved model: (load, level) for every load (the trials' mean offset
 /// plus the shared level) and (load, τ) for every step.
-fn first_order_part(d: &Design, x: &[f64], trials: &[Trial]) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+fn first_order_part(d: &Design, cfg: &Config, x: &[f64], trials: &[Trial]) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
     let n = d.n_trials;
     let offset = x.iter().take(n).sum::<f64>() / n.max(1) as f64;
     let levels = d.loads.iter().enumerate().map(|(j, &l)| [l, offset + if j == 0 { 0.0 } else { x.get(n + j - 1).copied().unwrap_or(f64::NAN) }]).collect();
-    let taus = trials.iter().flat_map(|tr| tr.segs.iter().map(|sg| [sg.load, sg.tau])).collect();
+    // τ as the model has it: a clip's fixed τ, or the step's τ with its shape correction
+    // (coefficient −Δ ln τ); a jump (faster than a sample) has no τ to tell
+    let taus = trials
+        .iter()
+        .enumerate()
+        .flat_map(|(i, tr)| {
+            tr.segs.iter().enumerate().filter(|(_, sg)| !is_jump(tr, sg)).map(move |(s, sg)| {
+                let mut tau = cfg.tau_of(i, s, sg);
+                if cfg.tau_free && !d.prior && cfg.fixed(i, s).is_none() {
+                    tau *= (-x.get(d.n_levels() + sg.key).copied().unwrap_or(0.0)).exp();
+                }
+                [sg.load, tau]
+            })
+        })
+        .collect();
     (levels, taus)
 }
 
@@ -1928,11 +1942,8 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     // honest naming: the other effects that explain each finding's residual about as well
     for (e, alts) in alternatives::alternatives(&cur, &cur_score, &Ctx { d: &d, trials: &trials, hat: &hat, clip, clip_steps: &clip_steps, med_tau }) {
         if let Some(f) = findings.iter_mut().find(|f| f.effect == e.name()) {
-            f.ambiguity = alternatives::sentence(f.effect, &alts);
-            if !alts.is_empty() && f.confidence == "high" {
-                f.confidence = "medium";
-            }
             f.alternatives = alts;
+            alternatives::apply(f);
         }
     }
     // the relaxation spectrum (issue 15): the exact forms of relaxation (creep, one second time
@@ -1970,7 +1981,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     let (cur, cur_x, final_trials, final_base, xb) = refit::final_refit(&d, trials, base_eval, &base_fit, (&base_cfg, &hat0, xb), (cur, cur_x, &hat), &mut findings, refit_always);
     let predictions = refit::predictions(recs, &d, &final_trials, &final_base, (&base_cfg, &hat0, &xb), (&cur, &hat, &cur_x), &findings);
     let by_unit = unit_errors(&final_base, &base, &cur_score);
-    let (levels, taus) = if d.prior { (vec![], vec![]) } else { first_order_part(&d, &cur_x, &final_trials) };
+    let (levels, taus) = if d.prior { (vec![], vec![]) } else { first_order_part(&d, &cur, &cur_x, &final_trials) };
     // the spectrum's finding takes the name its fitted shape gives
     let mut final_names: Vec<&'static str> = cur.effects.iter().filter(|e| **e != Effect::RestRelaxation).map(|e| e.name()).collect();
     // the nuisances' parameters as in the final model
@@ -1981,10 +1992,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         name_spectrum(f, spectrum_exact.as_ref());
         let own = f.effect;
         f.alternatives.retain(|a| a.effect != own);
-        f.ambiguity = alternatives::sentence(f.effect, &f.alternatives);
-        if !f.alternatives.is_empty() && f.confidence == "high" {
-            f.confidence = "medium";
-        }
+        alternatives::apply(f);
         for n in final_names.iter_mut().filter(|n| **n == Effect::Relaxation.name()) {
             *n = f.effect;
         }

@@ -15,26 +15,48 @@ use std::fmt::Write;
 /// Newtons per gram of load.
 const N_PER_G: f64 = 9.80665e-3;
 
-/// The sensor file as TOML text, or why it cannot be written (a sentence naming what is missing).
-pub fn sensor_toml(d: &Diagnosis, report: &Report, rec: &Recording) -> Result<String, String> {
+/// Whether a twin can be written from these recordings at all (checked before diagnosing): the
+/// divider's metadata, a voltage, and a load the simulator can apply. The reason otherwise.
+pub fn can_write(rec: &Recording) -> Result<(), String> {
     let m = &rec.meta;
-    let (Some(vcc), Some(rm), Some(div)) = (m.vcc_v, m.r_m_ohm, m.divider) else {
-        return Err("the recording has no divider metadata (# vcc_v=, # r_m_ohm=, # divider=): the twin simulates the divider's voltage".into());
-    };
-    if d.unit != "V" {
-        return Err(format!("the twin simulates a divider voltage; this diagnosis is in {}", d.unit));
+    if m.vcc_v.is_none() || m.r_m_ohm.is_none() || m.divider.is_none() {
+        return Err(format!("{} has no divider metadata (# vcc_v=, # r_m_ohm=, # divider=): the twin simulates the divider's voltage", rec.source));
     }
+    if rec.unit != "V" {
+        return Err(format!("the twin simulates a divider voltage; {} is in {}", rec.source, rec.unit));
+    }
+    if rec.protocol_kind.grams(1.0).is_none() {
+        return Err(format!("the twin applies loads; {} logs a unitless input (log load_g or force_n)", rec.source));
+    }
+    Ok(())
+}
+
+/// The sensor file as TOML text, or why it cannot be written (a sentence naming what is missing or
+/// which fitted value the simulator would refuse). The text is parsed back as the simulator reads
+/// it before it is returned.
+pub fn sensor_toml(d: &Diagnosis, report: &Report, rec: &Recording) -> Result<String, String> {
+    can_write(rec)?;
+    let m = &rec.meta;
+    let (Some(vcc), Some(rm), Some(div)) = (m.vcc_v, m.r_m_ohm, m.divider) else { return Err("no divider metadata".into()) };
     // the law from the improved model's first-order part (its levels and time constants are not
-    // biased by the effects its terms carry), else from the baseline's steps
+    // biased by the effects its terms carry), else from the baseline's steps; loads in grams
     let readout = if div == Divider::SensorHigh { Readout::DividerHigh { vcc_v: vcc, r_m_ohm: rm } } else { Readout::DividerLow { vcc_v: vcc, r_m_ohm: rm } };
+    let grams = |l: f64| rec.protocol_kind.grams(l).unwrap_or(f64::NAN);
     let from_model = {
-        let lv: Vec<(f64, f64)> = d.final_.levels.iter().map(|p| (p[0], p[1])).collect();
-        let ts: Vec<(f64, f64)> = d.final_.taus.iter().map(|p| (p[0], p[1])).collect();
+        let lv: Vec<(f64, f64)> = d.final_.levels.iter().map(|p| (grams(p[0]), p[1])).collect();
+        let ts: Vec<(f64, f64)> = d.final_.taus.iter().map(|p| (grams(p[0]), p[1])).collect();
         fashion::fit(readout, &lv, &ts)
     };
-    let Some(f) = from_model.as_ref().or(report.fashion.as_ref()) else {
+    let from_steps = || {
+        let f = report.fashion.as_ref()?;
+        let lv: Vec<(f64, f64)> = f.levels.iter().map(|l| (grams(l.0), l.1)).collect();
+        let ts: Vec<(f64, f64)> = f.taus.iter().map(|t| (grams(t.0), t.1)).collect();
+        fashion::fit(readout, &lv, &ts)
+    };
+    let Some(f) = from_model.or_else(from_steps) else {
         return Err("the conductance law needs steps to at least three load levels (the fashion curves): record a staircase of loads".into());
     };
+    let f = &f;
     let rate = report.recordings.first().map(|r| r.sample_rate_hz).or(m.sample_rate_hz).unwrap_or(100.0);
     let sigma = noise_before_adc(d, report, m.adc_bits, m.vref_v.unwrap_or(vcc));
     // the law in the simulator's units: force in newtons including the preload
@@ -46,15 +68,18 @@ pub fn sensor_toml(d: &Diagnosis, report: &Report, rec: &Recording) -> Result<St
     let _ = writeln!(t, "# The first-order part is the fashion curves of the improved model's levels and time constants; the effects are the diagnosis's");
     let _ = writeln!(t, "# terms with their fitted parameters. Simulate it on the recording's protocol to compare.");
     let _ = writeln!(t, "kind = \"sensor\"\n\n[circuit]");
-    let _ = writeln!(t, "vcc_v = {vcc}\nr_m_ohm = {rm}\ndivider = \"{}\"", if div == Divider::SensorHigh { "sensor_high" } else { "sensor_low" });
-    let _ = writeln!(t, "adc_bits = {}\nvref_v = {}\nsample_rate_hz = {}", m.adc_bits.unwrap_or(16), m.vref_v.unwrap_or(vcc), fmt(rate));
+    let _ = writeln!(t, "vcc_v = {}\nr_m_ohm = {}\ndivider = \"{}\"", fmt(vcc), fmt(rm), if div == Divider::SensorHigh { "sensor_high" } else { "sensor_low" });
+    let _ = writeln!(t, "adc_bits = {}\nvref_v = {}\nsample_rate_hz = {}", m.adc_bits.unwrap_or(16), fmt(m.vref_v.unwrap_or(vcc)), fmt(rate));
     let _ = writeln!(t, "\n[conductance]  # fitted: G = {} S · (F / 1 N)^{}, log-G RMS {}", fmt(g_ref), fmt(f.n), fmt(f.k_log_rms));
     let _ = writeln!(t, "g_ref_s = {}\nexponent = {}", fmt(g_ref), fmt(f.n));
     let _ = writeln!(t, "\n[relaxation]  # fitted: τ = τ0 + τ1 · F, RMS {} s", fmt(f.tau_rms_s));
-    let _ = writeln!(t, "tau0_s = {}\ntau_per_n_s = {}", fmt(tau0.max(1e-3)), fmt(tau_per_n));
+    let _ = writeln!(t, "tau0_s = {}\ntau_per_n_s = {}", fmt(tau0), fmt(tau_per_n));
     let _ = writeln!(t, "\n[noise]\nsigma_v = {}", fmt(sigma));
     let _ = writeln!(t, "\n[rig]\npreload_g = {}", fmt(f.preload));
     effects(&mut t, d);
+    // what the simulator would refuse is refused here, with the fitted value named
+    let src = crate::params::SourceFile::parse("twin", t.clone()).map_err(|e| format!("the fitted sensor is not a valid sensor file: {e}"))?;
+    crate::params::sensor::SensorParams::from_source(&src).map_err(|e| format!("a fitted value is outside what the simulator accepts, so no twin is written: {e}"))?;
     Ok(t)
 }
 

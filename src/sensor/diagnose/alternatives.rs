@@ -2,8 +2,8 @@
 //! well on this data. For every physics term of the final model, the term is dropped and each other
 //! catalogue effect is put in its place (its shape chosen on the training fit, as in the forward
 //! step). An effect is an alternative when, in that place,
-//! - it passes the rule a term passes against the model without the named term (lower held-out
-//!   error, paired z ≥ MIN_Z), so it explains the residual in its own right, and
+//! - it explains the residual in its own right against the model without the named term (lower
+//!   held-out error with a paired z ≥ MIN_Z; no BIC test, unlike the forward rule), and
 //! - the named model does not predict the held-out units better than it with a paired z of at least
 //!   `Z_SEPARATE`: the data cannot tell the two apart.
 //!
@@ -61,9 +61,11 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
             let mut c = wo.clone();
             c.effects.push(Effect::RestRelaxation);
             c.rest_tau = Some(tau);
-            if let Some((s, _)) = score(ctx.d, ctx.trials, &c, ctx.hat) {
+            if let Some((s, _)) = nuisance::rest_allowed(ctx.d, ctx.trials, tau).then(|| score(ctx.d, ctx.trials, &c, ctx.hat)).flatten() {
+                // it must explain the residual itself, as every alternative does
+                let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
                 let z_sep = paired_z(&s.units, &cur_score.units);
-                if z_sep < Z_SEPARATE {
+                if explains && z_sep < Z_SEPARATE {
                     alts.push(Alternative { effect: Effect::RestRelaxation.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep });
                 }
             }
@@ -71,6 +73,15 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
         out.push((named, alts));
     }
     out
+}
+
+/// A finding with its alternatives set: the sentence, and a confidence of at most medium when the
+/// name does not stand alone.
+pub(super) fn apply(f: &mut Finding) {
+    f.ambiguity = sentence(f.effect, &f.alternatives);
+    if !f.alternatives.is_empty() && f.confidence == "high" {
+        f.confidence = "medium";
+    }
 }
 
 /// The sentence a reader gets for a finding with alternatives.

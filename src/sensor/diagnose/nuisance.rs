@@ -62,15 +62,12 @@ pub const REST_TAUS_S: [f64; 9] = [10.0, 20.0, 35.0, 60.0, 100.0, 170.0, 300.0, 
 /// The rest relaxation's candidates: one per time constant up to a third of the shortest trial
 /// (with two trials or more; it competes with the physics terms in the forward selection).
 pub(super) fn rest_candidates(d: &Design, trials: &[Trial], cur: &Config) -> Vec<Config> {
-    if d.prior || trials.len() < 2 || cur.rest_tau.is_some() {
+    if cur.rest_tau.is_some() {
         return vec![];
     }
-    let shortest = trials.iter().map(|t| t.t.last().copied().unwrap_or(0.0) - t.t.first().copied().unwrap_or(0.0)).fold(f64::INFINITY, f64::min);
-    // a relaxation that fades within the trial: a longer one is a trend per trial, which would
-    // stand in for drift and hysteresis (the later, unloading half raised)
     REST_TAUS_S
         .into_iter()
-        .filter(|&t| t <= REST_MAX_SHARE * shortest)
+        .filter(|&t| rest_allowed(d, trials, t))
         .map(|tau| {
             let mut c = cur.clone();
             c.effects.push(Effect::RestRelaxation);
@@ -78,6 +75,15 @@ pub(super) fn rest_candidates(d: &Design, trials: &[Trial], cur: &Config) -> Vec
             c
         })
         .collect()
+}
+
+/// Whether a rest relaxation with time constant `tau` may be fitted: two trials or more (it is fitted
+/// per trial), no simulator baseline, and a relaxation that fades within the trial: τ at most
+/// REST_MAX_SHARE of the shortest one (a longer one is a trend per trial, which would stand in for
+/// drift and hysteresis: the later, unloading half raised).
+pub(super) fn rest_allowed(d: &Design, trials: &[Trial], tau: f64) -> bool {
+    let shortest = trials.iter().map(|t| t.t.last().copied().unwrap_or(0.0) - t.t.first().copied().unwrap_or(0.0)).fold(f64::INFINITY, f64::min);
+    !d.prior && trials.len() >= 2 && tau <= REST_MAX_SHARE * shortest
 }
 
 /// A nuisance the forward selection took, as the diagnosis reports it.
