@@ -162,6 +162,13 @@ fn a_twin_file_that_cannot_be_written_is_refused_before_the_diagnosis() {
         assert!(out.contains("--write-sensor") && out.contains(needle), "{needle}: {out}");
         assert!(!out_dir.exists(), "{needle}: the diagnosis folder was written");
     }
+    // one step up and down (the FSR402-like case): no conductance law to fit
+    let one = d.join("one.csv");
+    let (code, out) = tipforge(&["simulate", "--sensor", "params/sensor-fsr402.toml", "--protocol", "params/protocol-1kg-hold.toml", "--seed", "3", "-o", s(&one)]);
+    assert_eq!(code, 0, "{out}");
+    let (code, out) = tipforge(&["diagnose", s(&one), "--out", s(&d.join("diag")), "--write-sensor", s(&d.join("twin.toml"))]);
+    assert_eq!(code, 2, "{out}");
+    assert!(out.contains("at least three load levels") && !d.join("diag").exists() && !d.join("twin.toml").exists(), "{out}");
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -346,5 +346,5 @@ fn twin_preconditions(path: &Path, inputs: &[PathBuf], rec: &super::recording::R
     if inputs.iter().any(|i| same(i)) {
         return fail("is one of the recordings: the twin would overwrite it; give another name".into());
     }
-    super::twin::can_write(rec).or_else(|why| fail(why))
+    super::twin::can_write(rec).map_err(|why| Error::input(&rec.source, "--write-sensor", path.display(), why))
 }

@@ -28,6 +28,12 @@ pub fn can_write(rec: &Recording) -> Result<(), String> {
     if rec.protocol_kind.grams(1.0).is_none() {
         return Err(format!("the twin applies loads; {} logs a unitless input (log load_g or force_n)", rec.source));
     }
+    let mut loads: Vec<f64> = rec.protocol.clone();
+    loads.sort_by(f64::total_cmp);
+    loads.dedup();
+    if loads.len() < 3 {
+        return Err(format!("the conductance law needs steps to at least three load levels (the fashion curves); {} has {}: record a staircase of loads", rec.source, loads.len()));
+    }
     Ok(())
 }
 
