@@ -19,6 +19,13 @@ fn tipforge(args: &[&str]) -> (i32, String) {
     (o.status.code().unwrap_or(-1), format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr)))
 }
 
+/// Two trials of the default sensor (seeds 9, 10) in `d`: rec-1.csv and rec-2.csv.
+fn two_trials(d: &Path) -> (PathBuf, PathBuf) {
+    let (code, out) = tipforge(&["simulate", "--seed", "9", "--trials", "2", "-o", s(&d.join("rec.csv"))]);
+    assert_eq!(code, 0, "{out}");
+    (d.join("rec-1.csv"), d.join("rec-2.csv"))
+}
+
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
@@ -151,9 +158,7 @@ fn a_twin_from_a_force_recording_is_in_the_simulators_units() {
 #[test]
 fn a_twin_file_that_cannot_be_written_is_refused_before_the_diagnosis() {
     let d = dir("paths");
-    let (code, out) = tipforge(&["simulate", "--seed", "9", "--trials", "2", "-o", s(&d.join("rec.csv"))]);
-    assert_eq!(code, 0, "{out}");
-    let (r1, r2) = (d.join("rec-1.csv"), d.join("rec-2.csv"));
+    let (r1, r2) = two_trials(&d);
     std::fs::create_dir_all(d.join("a-folder.toml")).unwrap();
     for (target, needle) in [(d.join("a-folder.toml"), "is a folder"), (d.join("no/such/twin.toml"), "does not exist"), (r1.clone(), "is one of the recordings")] {
         let out_dir = d.join("diag");
@@ -175,14 +180,12 @@ fn a_twin_file_that_cannot_be_written_is_refused_before_the_diagnosis() {
 #[test]
 fn a_twin_needs_the_divider_and_writes_nothing_without_it() {
     let d = dir("no-divider");
-    let (code, out) = tipforge(&["simulate", "--seed", "9", "--trials", "2", "-o", s(&d.join("rec.csv"))]);
-    assert_eq!(code, 0, "{out}");
-    for k in 1..=2 {
-        let p = d.join(format!("rec-{k}.csv"));
-        let kept: String = std::fs::read_to_string(&p).unwrap().lines().filter(|l| !l.starts_with("# divider") && !l.starts_with("# vcc_v")).map(|l| format!("{l}\n")).collect();
-        std::fs::write(&p, kept).unwrap();
+    let (r1, r2) = two_trials(&d);
+    for p in [&r1, &r2] {
+        let kept: String = std::fs::read_to_string(p).unwrap().lines().filter(|l| !l.starts_with("# divider") && !l.starts_with("# vcc_v")).map(|l| format!("{l}\n")).collect();
+        std::fs::write(p, kept).unwrap();
     }
-    let (code, out) = tipforge(&["diagnose", s(&d.join("rec-1.csv")), s(&d.join("rec-2.csv")), "--out", s(&d.join("diag")), "--write-sensor", s(&d.join("twin.toml"))]);
+    let (code, out) = tipforge(&["diagnose", s(&r1), s(&r2), "--out", s(&d.join("diag")), "--write-sensor", s(&d.join("twin.toml"))]);
     assert_eq!(code, 2, "{out}");
     assert!(out.contains("--write-sensor") && out.contains("divider metadata"), "{out}");
     assert!(!d.join("twin.toml").exists() && !d.join("diag").exists());

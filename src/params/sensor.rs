@@ -206,22 +206,17 @@ impl SensorParams {
         let ctau = num(&mut c, &r.cover, "cover", "tau_s", 5.0, 0.001, 1e5);
         let ef = r.effects.clone().unwrap_or_default();
         let e = |name: &str| ef.get(name).cloned();
-        let before_noise = match e("saturation").as_ref().and_then(|t| t.get("before_noise")) {
+        // a switch of an effect's table: absent is false; anything but a boolean is a problem
+        let mut flag = |table: &str, key: &str, fix: &str| match e(table).as_ref().and_then(|t| t.get(key)) {
             None => false,
             Some(toml::Value::Boolean(b)) => *b,
             Some(v) => {
-                c.push("effects.saturation.before_noise", v, "use true (an amplifier's rail, before the noise) or false (the ADC's reference, after it)");
+                c.push(&format!("effects.{table}.{key}"), v, fix);
                 false
             }
         };
-        let superposed = match e("creep").as_ref().and_then(|t| t.get("superposed")) {
-            None => false,
-            Some(toml::Value::Boolean(b)) => *b,
-            Some(v) => {
-                c.push("effects.creep.superposed", v, "use true (each change's creep keeps going after later changes) or false (creep restarts at every step)");
-                false
-            }
-        };
+        let before_noise = flag("saturation", "before_noise", "use true (an amplifier's rail, before the noise) or false (the ADC's reference, after it)");
+        let superposed = flag("creep", "superposed", "use true (each change's creep keeps going after later changes) or false (creep restarts at every step)");
         let eff = Effects {
             saturation_before_noise: before_noise,
             creep_superposed: superposed,

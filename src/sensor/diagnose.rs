@@ -85,6 +85,10 @@ struct Trial {
 }
 
 impl Trial {
+    /// From its first sample to its last (s).
+    fn span_s(&self) -> f64 {
+        self.t.last().copied().unwrap_or(0.0) - self.t.first().copied().unwrap_or(0.0)
+    }
     /// The simulator's prediction (0 without a simulator baseline).
     fn prior(&self, t: f64) -> f64 {
         let Some(p0) = self.prior0 else { return 0.0 };
@@ -1148,6 +1152,16 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Opti
 /// Paired z over the units listed in `only` (all units when it is empty). With fewer than three
 /// such units a z cannot be formed: every one of them must then at least halve its error, which
 /// counts as passing (MIN_Z), else 0.
+/// The paired z of a change that adds or removes a clip (`clip`): a clip can only change the units
+/// that reach it, so its evidence is tested there; any other change over every unit.
+fn change_z(clip: bool, before: &Score, after: &Score, clip_steps: &ClipSteps) -> f64 {
+    if clip {
+        paired_z_on(before, after, &clip_steps.units)
+    } else {
+        paired_z(&before.units, &after.units)
+    }
+}
+
 fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]) -> f64 {
     if only.is_empty() {
         return paired_z(&before.units, &after.units);
@@ -1645,7 +1659,7 @@ fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
         Effect::BaselineDrift => {
             // linear, or a warm-up on a log grid of τ up to the longest trial (a longer one is a
             // line over the recording)
-            let longest = trials.iter().map(|tr| tr.t.last().copied().unwrap_or(0.0) - tr.t.first().copied().unwrap_or(0.0)).fold(0.0, f64::max);
+            let longest = trials.iter().map(Trial::span_s).fold(0.0, f64::max);
             std::iter::once(None)
                 .chain(catalogue::baseline_drift::WARMUP_TAUS_S.iter().filter(|&&tau| tau <= longest).map(|&tau| Some(tau)))
                 .map(|tau| {
@@ -1726,6 +1740,9 @@ fn without(cur: &Config, idx: usize) -> Config {
     }
     if e == Effect::RestRelaxation {
         c.rest_tau = None;
+    }
+    if e == Effect::BaselineDrift {
+        c.drift_tau = None;
     }
     c
 }

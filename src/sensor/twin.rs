@@ -154,10 +154,7 @@ fn fmt(v: f64) -> String {
 /// samples about the improved model, median over the recordings, less the ADC's quantisation
 /// (LSB² / 12) when the recording states its bits; the analysis's raw estimate without predictions.
 fn noise_before_adc(d: &Diagnosis, report: &Report, bits: Option<u32>, vref: f64) -> f64 {
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied().unwrap_or(0.0)
-    };
+    use super::preprocess::median;
     let mut per: Vec<f64> = d
         .predictions
         .iter()
@@ -169,7 +166,7 @@ fn noise_before_adc(d: &Diagnosis, report: &Report, bits: Option<u32>, vref: f64
             1.4826 * median(&mut dev)
         })
         .collect();
-    let measured = if per.is_empty() { median(&mut report.recordings.iter().map(|r| r.noise_sigma_raw).collect()) } else { median(&mut per) };
+    let measured = if per.is_empty() { median(&mut report.recordings.iter().map(|r| r.noise_sigma_raw).collect::<Vec<f64>>()) } else { median(&mut per) };
     let q2 = bits.map(|b| (vref / (1u64 << b.min(62)) as f64).powi(2) / 12.0).unwrap_or(0.0);
     (measured * measured - q2).max(0.0).sqrt()
 }

@@ -82,7 +82,7 @@ pub(super) fn rest_candidates(d: &Design, trials: &[Trial], cur: &Config) -> Vec
 /// REST_MAX_SHARE of the shortest one (a longer one is a trend per trial, which would stand in for
 /// drift and hysteresis: the later, unloading half raised).
 pub(super) fn rest_allowed(d: &Design, trials: &[Trial], tau: f64) -> bool {
-    let shortest = trials.iter().map(|t| t.t.last().copied().unwrap_or(0.0) - t.t.first().copied().unwrap_or(0.0)).fold(f64::INFINITY, f64::min);
+    let shortest = trials.iter().map(Trial::span_s).fold(f64::INFINITY, f64::min);
     !d.prior && trials.len() >= 2 && tau <= REST_MAX_SHARE * shortest
 }
 

@@ -53,8 +53,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
             let Some((s, x)) = score(d, trials, &c, &hat) else { continue };
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
             let dbic = s.bic - cur_score.bic;
-            // a clip can only change the units that reach it: its evidence is tested there
-            let z = if e == Effect::Saturation { paired_z_on(&cur_score, &s, &clip_steps.units) } else { paired_z(&cur_score.units, &s.units) };
+            let z = change_z(e == Effect::Saturation, &cur_score, &s, clip_steps);
             decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
             if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
                 exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
@@ -64,8 +63,9 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
             // and a term fitted per trial must beat the same term shared by the trials (the guide's
             // two hypotheses): a rest relaxation whose trials agree is a warm-up of the read-out,
             // the drift's
-            let per_trial = e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, &c, &s, &hat);
-            if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && per_trial && best.as_ref().is_none_or(|b| s.bic < b.2.bic) {
+            // (checked last: it is a cross-validated score of its own)
+            let per_trial = || e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, &c, &s, &hat);
+            if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) && per_trial() {
                 best = Some((e, c, s, x));
             }
         }
@@ -126,7 +126,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
         for (idx, e) in cur.effects.iter().enumerate() {
             let c = without(&cur, idx);
             let Some((s_wo, x_wo)) = score(d, trials, &c, &hat) else { continue };
-            let z = if *e == Effect::Saturation { paired_z_on(&s_wo, &cur_score, &clip_steps.units) } else { paired_z(&s_wo.units, &cur_score.units) };
+            let z = change_z(*e == Effect::Saturation, &s_wo, &cur_score, clip_steps);
             let dbic = cur_score.bic - s_wo.bic;
             let passes = z >= MIN_Z && dbic <= MIN_DBIC;
             let others_stand = c.effects.is_empty() || (paired_z(&floor.units, &s_wo.units) >= MIN_Z && s_wo.bic - floor.bic <= MIN_DBIC && s_wo.heldout_rmse < floor.heldout_rmse);
