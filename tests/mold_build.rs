@@ -110,7 +110,7 @@ fn flat_mold_develops_the_pad() {
     // the developed length is at least the covered run along the finger, the width at least the
     // pad's chord at the parting plane
     let s = &l.shape;
-    let chord = 2.0 * s.lateral * (s.pad_depth.powi(2) - l.z_parting.powi(2)).sqrt();
+    let chord = 2.0 * s.flank_y(l.x_start, l.z_parting).unwrap();
     assert!(len > p.cover.from_tip_mm - 2.0 && len < p.cover.from_tip_mm + 5.0, "{len}");
     assert!(wid > chord && wid < 1.6 * chord, "{wid} vs chord {chord}");
     assert_eq!(at.len(), 1);

@@ -3,6 +3,7 @@
 //! boolean).
 
 pub mod shape;
+pub mod sections;
 
 use crate::error::{Error, Result};
 use crate::mesh::{self, add, frame, scale, segments, sub, Solid, P3};
@@ -144,10 +145,7 @@ fn socket_box(p: &FingertipParams) -> (P3, P3) {
 
 /// Half-width of the body at (x, z): where the flank is.
 pub fn flank_y(shape: &Shape, x: f64, z: f64) -> Option<f64> {
-    let r = shape.r(x);
-    let zr = if z >= 0.0 { z * shape.pad_depth / shape.dorsal_height } else { z };
-    let q = 1.0 - (zr / r).powi(2);
-    (r > 0.0 && q >= 0.0).then(|| shape.lateral * r * q.sqrt())
+    shape.flank_y(x, z)
 }
 
 /// |y| of the head recess floor of a cross hole at (x, z).

@@ -29,7 +29,7 @@ pub fn offset_along(shape: &Shape, t: f64, q: P3, dir: P3, s0: f64) -> Option<f6
         sub(o, add(q, scale(dir, s)))
     };
     let p0 = add(q, scale(dir, s0));
-    let (mut x, mut phi, mut s) = (p0[0], (p0[2]).atan2(p0[1] / shape.lateral), s0);
+    let (mut x, mut phi, mut s) = (p0[0], (p0[2] / shape.pad_depth_at(p0[0]).max(1e-9)).atan2(p0[1] / shape.half_width(p0[0]).max(1e-9)), s0);
     for _ in 0..40 {
         let r = f(x, phi, s);
         if norm(r) < 1e-10 {

@@ -22,15 +22,15 @@ pub fn developed(l: &Layout) -> (f64, f64, Vec<[f64; 2]>) {
     let ze = l.z_parting;
     let n = 2000;
     // meridian along y = 0 from x_start until the pad bottom rises to the parting plane
-    let meridian: Vec<[f64; 2]> = (0..=n).map(|i| l.x_start + (s.length - l.x_start) * i as f64 / n as f64).filter(|&x| s.r(x) >= -ze).map(|x| [x, -s.r(x)]).collect();
+    let meridian: Vec<[f64; 2]> = (0..=n).map(|i| l.x_start + (s.length - l.x_start) * i as f64 / n as f64).filter(|&x| s.pad_depth_at(x) >= -ze).map(|x| [x, -s.pad_depth_at(x)]).collect();
     let length = arc(&meridian);
     let cross = |x: f64, y_to: Option<f64>| -> f64 {
-        let r = s.r(x);
+        let r = s.pad_depth_at(x);
         let phi0 = (-ze / r).clamp(-1.0, 1.0).asin();
         let pts: Vec<[f64; 2]> = (0..=n)
             .map(|i| {
                 let phi = phi0 + (std::f64::consts::PI - 2.0 * phi0) * i as f64 / n as f64;
-                [s.lateral * r * phi.cos(), -r * phi.sin()]
+                [s.half_width(x) * phi.cos(), -r * phi.sin()]
             })
             .filter(|p| y_to.is_none_or(|y| (p[0] >= 0.0 && p[0] <= y) || (p[0] < 0.0 && p[0] >= y)))
             .collect();
@@ -107,8 +107,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     }
     // what cutting the sheet out and bending it round the pad costs: outer-fibre strain
     let s = &l.shape;
-    let a = s.lateral * s.pad_depth;
-    let r_min = (s.pad_depth * s.pad_depth / a).min(p.fingertip.body.tip_radius_mm);
+    let r_min = s.pad_bend_radius();
     let strain = (t / 2.0) / (r_min + t / 2.0);
     let cut_volume = len * wid * t - l.domes.iter().map(|d| std::f64::consts::PI * d.r_base * d.r_base * d.depth).sum::<f64>();
     let mat = material(p, sheet.volume());

@@ -148,7 +148,7 @@ pub fn layout(p: &MoldParams) -> std::result::Result<Layout, String> {
         seats.push(st);
     }
     let x_start = x_start0;
-    let x_start_m = frame.to_mold([x_start, 0.0, -shape.r(x_start)])[0];
+    let x_start_m = frame.to_mold([x_start, 0.0, -shape.pad_depth_at(x_start)])[0];
     Ok(Layout { z_parting: -p.mold.parting_below_midplane_mm, x_start, x_start_m, frame, shape, seats, domes })
 }
 
@@ -201,7 +201,7 @@ pub fn rim_midline(l: &Layout, t: f64) -> Vec<[f64; 2]> {
         [qm[0] + nv[0] / h * w / 2.0, qm[1] + nv[1] / h * w / 2.0]
     };
     // the pad's bottom (y = 0) meets the parting plane here: the rim's tip end
-    let bottom = |x: f64| f.to_mold([x, 0.0, -s.r(x)])[2] - z;
+    let bottom = |x: f64| f.to_mold([x, 0.0, -s.pad_depth_at(x)])[2] - z;
     let x_tip = if bottom(l.x_start) < 0.0 { mesh::bisect(l.x_start, s.length, 60, |x| bottom(x) < 0.0) } else { l.x_start };
     let n = 120;
     let side: Vec<[f64; 2]> = (0..n)
@@ -211,7 +211,7 @@ pub fn rim_midline(l: &Layout, t: f64) -> Vec<[f64; 2]> {
         })
         .filter(|p| p[0] > l.x_start_m + 0.5)
         .collect();
-    let tip = mid([x_tip, 0.0, -s.r(x_tip)]);
+    let tip = mid([x_tip, 0.0, -s.pad_depth_at(x_tip)]);
     let mut out: Vec<[f64; 2]> = side.iter().map(|p| [p[0], -p[1]]).collect();
     out.push(tip);
     out.extend(side.iter().rev().copied());

@@ -29,6 +29,18 @@ pub struct RawBody {
     pub pad_longitudinal_radius_mm: Option<f64>,
     pub pad_transverse_radius_mm: Option<f64>,
     pub tip_radius_mm: Option<f64>,
+    /// The anatomical form: the length of the rounded end and the cross-sections along the finger.
+    pub tip_length_mm: Option<f64>,
+    pub station: Option<Vec<RawStation>>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawStation {
+    pub at_mm: Option<f64>,
+    pub width_mm: Option<f64>,
+    pub pad_depth_mm: Option<f64>,
+    pub nail_height_mm: Option<f64>,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -69,7 +81,8 @@ pub struct RawPrint {
     pub chordal_tolerance_mm: Option<f64>,
 }
 
-pub static BODY_SCHEMA: Schema = Schema { fields: fields_of::<RawBody>, tables: &[] };
+pub static STATION_SCHEMA: Schema = Schema { fields: fields_of::<RawStation>, tables: &[] };
+pub static BODY_SCHEMA: Schema = Schema { fields: fields_of::<RawBody>, tables: &[("station", true, &STATION_SCHEMA)] };
 pub static SENSOR_SCHEMA: Schema = Schema { fields: fields_of::<RawSensor>, tables: &[] };
 pub static MOUNT_SCHEMA: Schema = Schema { fields: fields_of::<RawMount>, tables: &[] };
 pub static PRINT_SCHEMA: Schema = Schema { fields: fields_of::<RawPrint>, tables: &[] };
@@ -78,18 +91,39 @@ pub static SCHEMA: Schema = Schema {
     tables: &[("body", false, &BODY_SCHEMA), ("sensor", true, &SENSOR_SCHEMA), ("mount", false, &MOUNT_SCHEMA), ("print", false, &PRINT_SCHEMA)],
 };
 
-/// Body shape. The side view of the pad is a straight run from the mount, an arc of
-/// `pad_longitudinal_radius`, then the tip arc; the cross-section is half an ellipse on each side
-/// of the mid-plane, so the pad's transverse radius sets the pad depth and the rest of the
-/// thickness is the (rounder) dorsal side.
+/// Body shape: its length, its widest and thickest section, and its form.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Body {
     pub length_mm: f64,
+    /// The widest section (the capsule's constant width).
     pub width_mm: f64,
+    /// The thickest section, pad to nail.
     pub thickness_mm: f64,
-    pub pad_longitudinal_radius_mm: f64,
-    pub pad_transverse_radius_mm: f64,
-    pub tip_radius_mm: f64,
+    pub form: Form,
+}
+
+/// How the body is shaped.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Form {
+    /// The side view of the pad is a straight run from the mount, an arc of
+    /// `pad_longitudinal_radius`, then the tip arc; the cross-section is half an ellipse on each side
+    /// of the mid-plane, so the pad's transverse radius sets the pad depth and the rest of the
+    /// thickness is the (rounder) dorsal side.
+    Capsule { pad_longitudinal_radius_mm: f64, pad_transverse_radius_mm: f64, tip_radius_mm: f64 },
+    /// Anatomical: the body is lofted through cross-sections (stations) along the finger, each two
+    /// half-ellipses (pad below the mid-plane, nail above) of the station's width, pad depth and nail
+    /// height, interpolated between stations without overshoot; the last `tip_length_mm` closes in a
+    /// quarter ellipse in every meridian.
+    Stations { tip_length_mm: f64, stations: Vec<Station> },
+}
+
+/// One cross-section of the anatomical body, `at_mm` from the mount face.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Station {
+    pub at_mm: f64,
+    pub width_mm: f64,
+    pub pad_depth_mm: f64,
+    pub nail_height_mm: f64,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -184,65 +218,8 @@ impl FingertipParams {
 }
 
 fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSensor], m: &RawMount, p: &RawPrint, board: Option<&super::board::Board>) -> Option<FingertipParams> {
-    let length = c.positive(b.length_mm, "body.length_mm", "28.0");
-    let width = c.positive(b.width_mm, "body.width_mm", "16.0");
-    let thickness = c.positive(b.thickness_mm, "body.thickness_mm", "14.0");
-    let r_long = c.positive(b.pad_longitudinal_radius_mm, "body.pad_longitudinal_radius_mm", "40.0");
-    let r_trans = c.positive(b.pad_transverse_radius_mm, "body.pad_transverse_radius_mm", "12.0");
-    let r_tip = c.positive(b.tip_radius_mm, "body.tip_radius_mm", "4.5");
     let print = print_params(c, p, 1.2);
-
-    let body = match (length, width, thickness, r_long, r_trans, r_tip) {
-        (Some(l), Some(w), Some(t), Some(rl), Some(rt), Some(rtip)) => {
-            let before = c.problems.len();
-            let pad_depth = (w / 2.0).powi(2) / rt;
-            if pad_depth >= t * 0.5 {
-                c.push(
-                    "body.pad_transverse_radius_mm",
-                    rt,
-                    format!(
-                        "gives a pad depth of {pad_depth:.2} mm, at least half the thickness {t} mm, so the pad would not be flatter than the dorsal side; use more than {:.2} mm",
-                        (w / 2.0).powi(2) / (t * 0.5)
-                    ),
-                );
-            }
-            if t - pad_depth > 10.0 * pad_depth {
-                c.push(
-                    "body.thickness_mm",
-                    t,
-                    format!(
-                        "more than 11 times the pad depth {pad_depth:.2} mm: the dorsal side would be a needle; use at most {:.1} or a smaller pad_transverse_radius_mm",
-                        11.0 * pad_depth
-                    ),
-                );
-            }
-            if rtip >= pad_depth {
-                c.push("body.tip_radius_mm", rtip, format!("must be smaller than the pad depth {pad_depth:.2} mm ((width/2)² / pad_transverse_radius)"));
-            }
-            if rl <= pad_depth {
-                c.push("body.pad_longitudinal_radius_mm", rl, format!("must be larger than the pad depth {pad_depth:.2} mm"));
-            }
-            if c.problems.len() == before {
-                let straight = l - rtip - ((rl - rtip).powi(2) - (rl - pad_depth).powi(2)).sqrt();
-                if straight < 0.0 {
-                    c.push(
-                        "body.length_mm",
-                        l,
-                        format!("too short for the pad arcs: the side profile needs {:.2} mm; lengthen the body or reduce pad_longitudinal_radius_mm", l - straight),
-                    );
-                }
-            }
-            (c.problems.len() == before).then_some(Body {
-                length_mm: l,
-                width_mm: w,
-                thickness_mm: t,
-                pad_longitudinal_radius_mm: rl,
-                pad_transverse_radius_mm: rt,
-                tip_radius_mm: rtip,
-            })
-        }
-        _ => None,
-    };
+    let body = if b.station.is_some() || b.tip_length_mm.is_some() { stations_body(c, b) } else { capsule_body(c, b) };
 
     if sensors.is_empty() || sensors.len() > 2 {
         c.push("sensor", format!("{} sensor table(s)", sensors.len()), "a fingertip carries 1 or 2 sensors: write one or two `[[sensor]]` sections");
@@ -341,6 +318,114 @@ fn validate_raw(c: &mut Collector, name: String, b: &RawBody, sensors: &[RawSens
         return None;
     }
     Some(FingertipParams { name, body: body?, sensors: out_sensors, mount: mount?, print: print? })
+}
+
+/// The capsule form (no `[[body.station]]`).
+fn capsule_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
+    let length = c.positive(b.length_mm, "body.length_mm", "28.0");
+    let width = c.positive(b.width_mm, "body.width_mm", "16.0");
+    let thickness = c.positive(b.thickness_mm, "body.thickness_mm", "14.0");
+    let r_long = c.positive(b.pad_longitudinal_radius_mm, "body.pad_longitudinal_radius_mm", "40.0");
+    let r_trans = c.positive(b.pad_transverse_radius_mm, "body.pad_transverse_radius_mm", "12.0");
+    let r_tip = c.positive(b.tip_radius_mm, "body.tip_radius_mm", "4.5");
+    let (Some(l), Some(w), Some(t), Some(rl), Some(rt), Some(rtip)) = (length, width, thickness, r_long, r_trans, r_tip) else { return None };
+    let before = c.problems.len();
+    let pad_depth = (w / 2.0).powi(2) / rt;
+    if pad_depth >= t * 0.5 {
+        c.push(
+            "body.pad_transverse_radius_mm",
+            rt,
+            format!(
+                "gives a pad depth of {pad_depth:.2} mm, at least half the thickness {t} mm, so the pad would not be flatter than the dorsal side; use more than {:.2} mm",
+                (w / 2.0).powi(2) / (t * 0.5)
+            ),
+        );
+    }
+    if t - pad_depth > 10.0 * pad_depth {
+        c.push(
+            "body.thickness_mm",
+            t,
+            format!("more than 11 times the pad depth {pad_depth:.2} mm: the dorsal side would be a needle; use at most {:.1} or a smaller pad_transverse_radius_mm", 11.0 * pad_depth),
+        );
+    }
+    if rtip >= pad_depth {
+        c.push("body.tip_radius_mm", rtip, format!("must be smaller than the pad depth {pad_depth:.2} mm ((width/2)² / pad_transverse_radius)"));
+    }
+    if rl <= pad_depth {
+        c.push("body.pad_longitudinal_radius_mm", rl, format!("must be larger than the pad depth {pad_depth:.2} mm"));
+    }
+    if c.problems.len() == before {
+        let straight = l - rtip - ((rl - rtip).powi(2) - (rl - pad_depth).powi(2)).sqrt();
+        if straight < 0.0 {
+            c.push(
+                "body.length_mm",
+                l,
+                format!("too short for the pad arcs: the side profile needs {:.2} mm; lengthen the body or reduce pad_longitudinal_radius_mm", l - straight),
+            );
+        }
+    }
+    (c.problems.len() == before).then_some(Body {
+        length_mm: l,
+        width_mm: w,
+        thickness_mm: t,
+        form: Form::Capsule { pad_longitudinal_radius_mm: rl, pad_transverse_radius_mm: rt, tip_radius_mm: rtip },
+    })
+}
+
+/// The anatomical form: `tip_length_mm` and two to eight `[[body.station]]` sections.
+fn stations_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
+    let before = c.problems.len();
+    for (path, given) in [
+        ("body.width_mm", b.width_mm),
+        ("body.thickness_mm", b.thickness_mm),
+        ("body.pad_longitudinal_radius_mm", b.pad_longitudinal_radius_mm),
+        ("body.pad_transverse_radius_mm", b.pad_transverse_radius_mm),
+        ("body.tip_radius_mm", b.tip_radius_mm),
+    ] {
+        if let Some(v) = given {
+            c.push(path, v, "remove it: with `[[body.station]]` sections the stations give the widths, depths and curvatures (or remove the stations and tip_length_mm for the capsule form)");
+        }
+    }
+    let length = c.positive(b.length_mm, "body.length_mm", "28.0");
+    let tip = c.positive(b.tip_length_mm, "body.tip_length_mm", "7.0");
+    let raw = b.station.clone().unwrap_or_default();
+    if !(2..=8).contains(&raw.len()) {
+        c.push("body.station", format!("{} station(s)", raw.len()), "the anatomical body needs 2 to 8 `[[body.station]]` sections (3–5 describe a finger: at the mount, the pulp and before the tip)");
+    }
+    let mut stations = Vec::new();
+    for (i, r) in raw.iter().enumerate() {
+        let k = |f: &str| format!("body.station[{i}].{f}");
+        let at = c.req(r.at_mm, &k("at_mm"), "0.0").filter(|v| v.is_finite());
+        let w = c.positive(r.width_mm, &k("width_mm"), "16.0");
+        let pd = c.positive(r.pad_depth_mm, &k("pad_depth_mm"), "6.0");
+        let nh = c.positive(r.nail_height_mm, &k("nail_height_mm"), "7.0");
+        if let (Some(at), Some(w), Some(pd), Some(nh)) = (at, w, pd, nh) {
+            stations.push(Station { at_mm: at, width_mm: w, pad_depth_mm: pd, nail_height_mm: nh });
+        }
+    }
+    let (Some(l), Some(tip)) = (length, tip) else { return None };
+    if tip >= l * 0.6 {
+        c.push("body.tip_length_mm", tip, format!("the rounded end must take less than 60 % of the body ({l} mm): use at most {:.1}", 0.6 * l));
+    }
+    let x_cap = l - tip;
+    for (i, s) in stations.iter().enumerate() {
+        let k = |f: &str| format!("body.station[{i}].{f}");
+        if s.at_mm < 0.0 || s.at_mm > x_cap + 1e-9 {
+            c.push(&k("at_mm"), s.at_mm, format!("stations lie between the mount face (0) and the start of the rounded end (length − tip_length = {x_cap:.2} mm)"));
+        }
+        if i > 0 && s.at_mm <= stations[i - 1].at_mm {
+            c.push(&k("at_mm"), s.at_mm, format!("stations go from the mount face toward the tip: must be more than the previous station's {} mm", stations[i - 1].at_mm));
+        }
+        if s.width_mm / 2.0 < s.pad_depth_mm.max(s.nail_height_mm) / 4.0 || s.width_mm / 2.0 > 4.0 * s.pad_depth_mm.min(s.nail_height_mm) {
+            c.push(&k("width_mm"), s.width_mm, "a section's half-width must lie within 1/4 and 4 times its pad depth and nail height: the section would be a blade");
+        }
+    }
+    if c.problems.len() != before || stations.len() != raw.len() || !(2..=8).contains(&stations.len()) {
+        return None;
+    }
+    let width = stations.iter().map(|s| s.width_mm).fold(0.0, f64::max);
+    let thickness = stations.iter().map(|s| s.pad_depth_mm + s.nail_height_mm).fold(0.0, f64::max);
+    Some(Body { length_mm: l, width_mm: width, thickness_mm: thickness, form: Form::Stations { tip_length_mm: tip, stations } })
 }
 
 type Recess = (Option<f64>, Option<Head>, Option<f64>, Option<f64>);
