@@ -16,6 +16,10 @@ pub use shape::Shape;
 /// 90° minus that slope.
 pub const MAX_RECESS_SLOPE_DEG: f64 = 30.0;
 
+/// A tail channel that opens into another seat's pocket overlaps the pocket's rim by at least this
+/// (mm), so that no sliver of wall is left between them.
+pub const OPEN_INTO_POCKET_MM: f64 = 0.2;
+
 /// Where a seat ends up: the flat plane and the pocket, in the design frame.
 #[derive(Debug, Clone)]
 pub struct Seat {
@@ -311,18 +315,29 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
                     }
                 }
             }
-            // channel of i vs pocket of j, plan view
+            // channel of i vs pocket of j, plan view: either a printable wall between them, or the
+            // channel opens into the pocket's rim wide enough to leave no sliver, without running
+            // under the sensing area (the dome's footprint)
             let (cx, cy, r) = (shape.length - sj.position_from_tip_mm, sj.lateral_offset_mm, sj.seat_diameter_mm / 2.0);
-            if path_distance(&channel_path(&shape, si), [cx, cy]) < r + si.channel_width_mm / 2.0 {
+            let half = si.channel_width_mm / 2.0;
+            let d = path_distance(&channel_path(&shape, si), [cx, cy]);
+            let clear = r + half + crate::checks::min_feature::MIN_FEATURE_MM;
+            let (open_lo, open_hi) = (sj.dome_diameter_mm / 2.0 + half, r + half - OPEN_INTO_POCKET_MM);
+            if d < clear && !(d >= open_lo && d <= open_hi) {
+                let open = if open_lo <= open_hi { format!(", or let it open into the pocket's rim ({:.2}–{:.2} mm)", cy.abs() + open_lo, cy.abs() + open_hi) } else { String::new() };
                 push(
                     format!("sensor[{i}].channel_offset_mm"),
                     si.channel_offset_mm.to_string(),
-                    format!("the tail channel crosses sensor[{j}]'s seat; route it beside (|offset| ≥ {:.2} mm)", cy.abs() + r + si.channel_width_mm / 2.0),
+                    format!(
+                        "the tail channel comes {:.2} mm from sensor[{j}]'s seat pocket: a wall under {} mm (two nozzle widths) does not print, and a channel under the sensing area lifts the board; route it beside (|offset| ≥ {:.2} mm){open}",
+                        d - r - half,
+                        crate::checks::min_feature::MIN_FEATURE_MM,
+                        cy.abs() + clear
+                    ),
                 );
             }
         }
     }
-
     // cross holes: along y through both side walls and the socket, a head recess on each flank
     let rr = m.hole_diameter_mm.max(m.head_diameter_mm) / 2.0;
     let r = m.hole_diameter_mm / 2.0;
@@ -521,7 +536,25 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
             }
             cutters.push(Solid::hull(&hull));
         }
+        // at a bend the pieces end square to their own runs: a joint spanning both ends fills the
+        // outer corner, which would otherwise be a 45° spike of wall in the channel
         let cp = channel_path(&shape, s);
+        for w in cp.windows(3) {
+            let unit2 = |a: [f64; 2], b: [f64; 2]| {
+                let l = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+                [(b[0] - a[0]) / l, (b[1] - a[1]) / l]
+            };
+            let mut hull = Vec::with_capacity(8);
+            for t in [unit2(w[0], w[1]), unit2(w[1], w[2])] {
+                for side in [-1.0, 1.0] {
+                    let fp = edge(w[1], t, side)?;
+                    let flare = fp[2] - zb;
+                    hull.push(fp);
+                    hull.push([fp[0] - t[1] * side * flare, fp[1] + t[0] * side * flare, zb]);
+                }
+            }
+            cutters.push(Solid::hull(&hull));
+        }
         let channel_dir = to_print(mesh::unit([cp[1][0] - cp[0][0], cp[1][1] - cp[0][1], 0.0]));
         seat_features.push(json!({
             "flat_center": to_print(st.flat_center),

@@ -57,7 +57,7 @@ impl Shape {
                 Shape { length: l, pad_depth, dorsal_height: dorsal, prof }
             }
             Form::Stations { tip_length_mm, stations } => {
-                let at: Vec<f64> = stations.iter().map(|s| s.at_mm).collect();
+                let at: Vec<f64> = stations.iter().map(|s| l - s.from_tip_mm).collect();
                 let f = |g: &dyn Fn(&crate::params::fingertip::Station) -> f64| Monotone::new(&at, &stations.iter().map(g).collect::<Vec<_>>());
                 let prof = Profile::Stations { x_cap: l - tip_length_mm, cap: *tip_length_mm, wh: f(&|s| s.width_mm / 2.0), zp: f(&|s| s.pad_depth_mm), zd: f(&|s| s.nail_height_mm), at };
                 let pad_depth = stations.iter().map(|s| s.pad_depth_mm).fold(0.0, f64::max);
@@ -467,62 +467,78 @@ impl Shape {
         builder::transformed(&solid, Matrix4::from_nonuniform_scale(1.0, *lateral, *zd))
     }
 
-    /// The anatomical body. truck revolves the base profile g exactly (a run of unit radius, then
-    /// the rounded end, a quarter circle stretched along x to its length by an exact affine map) and
-    /// tessellates it; every vertex is then carried onto the anatomical surface by the section
-    /// scales at its x (exact: the map takes the base surface onto the body's). The scales are
-    /// linear across a section, so a section's chords keep the base tolerance times the scale;
-    /// along x the run is cut where the scales' curvature would add more than half the tolerance
-    /// between two cuts. The tests measure the result against the exact surface.
+    /// The anatomical body, tessellated from its exact parametric form on a structured grid: rows
+    /// along the finger, columns round each section, the apex and the mount face's centre as fan
+    /// points. (truck has no smooth skin through sections, only ruled homotopies, so the loft is not
+    /// a truck body; every vertex lies on the exact surface.) The chord error is bounded by halves
+    /// of the tolerance: round a section, Δφ²/8 times the largest semi-axis; along the run,
+    /// Δx²/8 times the scales' curvature; over the rounded end, Δθ²/8 times its largest semi-axis.
+    /// The tests measure the result against the exact surface.
     fn stations_mesh(&self, tol: f64, what: &str) -> Result<Mesh> {
         let Profile::Stations { x_cap, cap, wh, zp, zd, .. } = &self.prof else { unreachable!("stations profile") };
         let s_max = [wh, zp, zd].iter().map(|f| (0..=100).map(|i| f.at(x_cap * i as f64 / 100.0)).fold(0.0, f64::max)).fold(0.0, f64::max);
         let k_max = [wh, zp, zd].iter().map(|f| f.max_curvature()).fold(0.0, f64::max);
-        // chord sag along x of a scaled section: dx² / 8 · |S''| ≤ tol / 2
-        let dx = if k_max > 0.0 { (4.0 * tol / k_max).sqrt().min(2.0) } else { 2.0 };
+        let step = |size: f64| (4.0 * tol / size).sqrt();
+        let n_phi = 4 * ((2.0 * std::f64::consts::PI / step(s_max)) / 4.0).ceil().max(2.0) as usize;
+        let dx = if k_max > 0.0 { (8.0 * tol / (2.0 * k_max)).sqrt().min(2.0) } else { 2.0 };
         let n_run = ((x_cap / dx).ceil() as usize).max(1);
-        // the base in x' = x / cap, so the end is a quarter of the unit circle
-        let xs = x_cap / cap;
-        let v = |x: f64, y: f64| builder::vertex(Point3::new(x, y, 0.0));
-        let tip = v(self.length / cap, 0.0);
-        let n_arc = 4;
-        let arc_pt = |i: usize| {
-            let a = std::f64::consts::FRAC_PI_2 * i as f64 / n_arc as f64;
-            (xs + a.cos(), a.sin())
-        };
-        let mut verts = vec![tip];
-        for i in 1..=n_arc {
-            let p = arc_pt(i);
-            verts.push(v(p.0, p.1));
+        let n_cap = ((std::f64::consts::FRAC_PI_2 / step(s_max.max(*cap))).ceil() as usize).max(2);
+        // rows: x and base radius g
+        let mut rows: Vec<(f64, f64)> = (0..=n_run).map(|i| (x_cap * i as f64 / n_run as f64, 1.0)).collect();
+        for i in 1..n_cap {
+            let th = std::f64::consts::FRAC_PI_2 * i as f64 / n_cap as f64;
+            rows.push((x_cap + cap * th.sin(), th.cos()));
         }
-        let mut edges = Vec::new();
-        for i in 0..n_arc {
-            let a = std::f64::consts::FRAC_PI_2 * (i as f64 + 0.5) / n_arc as f64;
-            edges.push(builder::circle_arc(&verts[i], &verts[i + 1], Point3::new(xs + a.cos(), a.sin(), 0.0)));
+        let mut vertices = Vec::with_capacity(rows.len() * n_phi + 2);
+        for &(x, g) in &rows {
+            let ([w, pd, nd], _) = self.scales(x);
+            for j in 0..n_phi {
+                let (sn, cs) = (2.0 * std::f64::consts::PI * j as f64 / n_phi as f64).sin_cos();
+                let (sn, cs) = if j % (n_phi / 4) == 0 { (sn.round(), cs.round()) } else { (sn, cs) };
+                vertices.push([x, w * g * cs, g * sn * if sn >= 0.0 { nd } else { pd }]);
+            }
         }
-        let mut last = verts[n_arc].clone();
-        for j in (0..n_run).rev() {
-            let next = v(xs * j as f64 / n_run as f64, 1.0);
-            edges.push(builder::line(&last, &next));
-            last = next;
+        let centre = vertices.len() as u32;
+        vertices.push([0.0, 0.0, 0.0]);
+        let apex = vertices.len() as u32;
+        vertices.push([self.length, 0.0, 0.0]);
+        let at = |r: usize, j: usize| (r * n_phi + j % n_phi) as u32;
+        let mut triangles = Vec::with_capacity(2 * rows.len() * n_phi);
+        for j in 0..n_phi {
+            triangles.push([centre, at(0, j + 1), at(0, j)]);
+            for r in 0..rows.len() - 1 {
+                triangles.push([at(r, j), at(r, j + 1), at(r + 1, j + 1)]);
+                triangles.push([at(r, j), at(r + 1, j + 1), at(r + 1, j)]);
+            }
+            triangles.push([at(rows.len() - 1, j), at(rows.len() - 1, j + 1), apex]);
         }
-        let origin = v(0.0, 0.0);
-        edges.push(builder::line(&last, &origin));
-        let wire: Wire = edges.into();
-        let shell = builder::cone(&wire, Vector3::unit_x(), Rad(2.0 * std::f64::consts::PI));
-        let solid = builder::transformed(&TSolid::new(vec![shell]), Matrix4::from_nonuniform_scale(*cap, 1.0, 1.0));
-        let base = mesh::tessellate(&solid, tol / (2.0 * s_max), what)?;
-        Ok(base.map(|p| {
-            let ([w, pd, nd], _) = self.scales(p[0]);
-            [p[0], p[1] * w, p[2] * if p[2] >= 0.0 { nd } else { pd }]
-        }))
+        let mut m = Mesh { vertices, triangles };
+        if m.signed_volume() < 0.0 {
+            m.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        }
+        if m.signed_volume() <= 0.0 {
+            return Err(crate::error::Error::geometry(what, "the anatomical body's tessellation has no volume"));
+        }
+        Ok(m)
+    }
+}
+
+/// A tapered finger with a pulp: widest and flattest at the mount, the pad deepest at x = 15.
+#[cfg(test)]
+pub(crate) fn tests_anat() -> Body {
+    use crate::params::fingertip::Station;
+    let st = |at: f64, width_mm, pad_depth_mm, nail_height_mm| Station { from_tip_mm: 28.0 - at, width_mm, pad_depth_mm, nail_height_mm };
+    Body {
+        length_mm: 28.0,
+        width_mm: 16.0,
+        thickness_mm: 13.4,
+        form: Form::Stations { tip_length_mm: 7.0, stations: vec![st(0.0, 16.0, 5.6, 7.2), st(8.0, 15.6, 6.0, 6.9), st(15.0, 15.0, 6.4, 6.4), st(21.0, 14.0, 6.0, 5.6)] },
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::fingertip::Station;
 
     fn body() -> Body {
         Body {
@@ -533,15 +549,8 @@ mod tests {
         }
     }
 
-    /// A tapered finger with a pulp: widest and flattest at the mount, the pad deepest at 2/3.
-    pub(crate) fn anatomical() -> Body {
-        let st = |at_mm, width_mm, pad_depth_mm, nail_height_mm| Station { at_mm, width_mm, pad_depth_mm, nail_height_mm };
-        Body {
-            length_mm: 28.0,
-            width_mm: 16.0,
-            thickness_mm: 13.4,
-            form: Form::Stations { tip_length_mm: 7.0, stations: vec![st(0.0, 16.0, 5.6, 7.2), st(8.0, 15.6, 6.0, 6.9), st(15.0, 15.0, 6.4, 6.4), st(21.0, 14.0, 6.0, 5.6)] },
-        }
+    fn anatomical() -> Body {
+        super::tests_anat()
     }
 
     #[test]

@@ -37,7 +37,7 @@ pub struct RawBody {
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawStation {
-    pub at_mm: Option<f64>,
+    pub from_tip_mm: Option<f64>,
     pub width_mm: Option<f64>,
     pub pad_depth_mm: Option<f64>,
     pub nail_height_mm: Option<f64>,
@@ -95,9 +95,9 @@ pub static SCHEMA: Schema = Schema {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Body {
     pub length_mm: f64,
-    /// The widest section (the capsule's constant width).
+    /// The widest section (the capsule's constant width; the widest station).
     pub width_mm: f64,
-    /// The thickest section, pad to nail.
+    /// The thickest section, pad to nail (the thickest station).
     pub thickness_mm: f64,
     pub form: Form,
 }
@@ -117,10 +117,11 @@ pub enum Form {
     Stations { tip_length_mm: f64, stations: Vec<Station> },
 }
 
-/// One cross-section of the anatomical body, `at_mm` from the mount face.
+/// One cross-section of the anatomical body, `from_tip_mm` along the finger from the tip (as the
+/// seats are placed: a shorter finger loses length at the mount, not at its pulp).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Station {
-    pub at_mm: f64,
+    pub from_tip_mm: f64,
     pub width_mm: f64,
     pub pad_depth_mm: f64,
     pub nail_height_mm: f64,
@@ -395,34 +396,38 @@ fn stations_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
     let mut stations = Vec::new();
     for (i, r) in raw.iter().enumerate() {
         let k = |f: &str| format!("body.station[{i}].{f}");
-        let at = c.req(r.at_mm, &k("at_mm"), "0.0").filter(|v| v.is_finite());
+        let at = c.positive(r.from_tip_mm, &k("from_tip_mm"), "10.0");
         let w = c.positive(r.width_mm, &k("width_mm"), "16.0");
         let pd = c.positive(r.pad_depth_mm, &k("pad_depth_mm"), "6.0");
         let nh = c.positive(r.nail_height_mm, &k("nail_height_mm"), "7.0");
         if let (Some(at), Some(w), Some(pd), Some(nh)) = (at, w, pd, nh) {
-            stations.push(Station { at_mm: at, width_mm: w, pad_depth_mm: pd, nail_height_mm: nh });
+            stations.push(Station { from_tip_mm: at, width_mm: w, pad_depth_mm: pd, nail_height_mm: nh });
         }
     }
     let (Some(l), Some(tip)) = (length, tip) else { return None };
     if tip >= l * 0.6 {
         c.push("body.tip_length_mm", tip, format!("the rounded end must take less than 60 % of the body ({l} mm): use at most {:.1}", 0.6 * l));
     }
-    let x_cap = l - tip;
     for (i, s) in stations.iter().enumerate() {
         let k = |f: &str| format!("body.station[{i}].{f}");
-        if s.at_mm < 0.0 || s.at_mm > x_cap + 1e-9 {
-            c.push(&k("at_mm"), s.at_mm, format!("stations lie between the mount face (0) and the start of the rounded end (length − tip_length = {x_cap:.2} mm)"));
+        if s.from_tip_mm < tip - 1e-9 {
+            c.push(&k("from_tip_mm"), s.from_tip_mm, format!("stations lie before the rounded end: at least tip_length_mm ({tip} mm) from the tip"));
         }
-        if i > 0 && s.at_mm <= stations[i - 1].at_mm {
-            c.push(&k("at_mm"), s.at_mm, format!("stations go from the mount face toward the tip: must be more than the previous station's {} mm", stations[i - 1].at_mm));
+        if i > 0 && s.from_tip_mm >= stations[i - 1].from_tip_mm {
+            c.push(&k("from_tip_mm"), s.from_tip_mm, format!("list the stations from the mount face toward the tip: must be less than the previous station's {} mm", stations[i - 1].from_tip_mm));
         }
         if s.width_mm / 2.0 < s.pad_depth_mm.max(s.nail_height_mm) / 4.0 || s.width_mm / 2.0 > 4.0 * s.pad_depth_mm.min(s.nail_height_mm) {
             c.push(&k("width_mm"), s.width_mm, "a section's half-width must lie within 1/4 and 4 times its pad depth and nail height: the section would be a blade");
         }
     }
+    if stations.first().is_some_and(|s| s.from_tip_mm < 0.5 * l) {
+        c.push("body.station[0].from_tip_mm", stations[0].from_tip_mm, format!("the first station should describe the mount end: at least half the body's length ({:.1} mm) from the tip", 0.5 * l));
+    }
     if c.problems.len() != before || stations.len() != raw.len() || !(2..=8).contains(&stations.len()) {
         return None;
     }
+    // the widest and thickest station: an upper bound of the body's sections (a station beyond the
+    // mount face, on a shortened finger, still shapes the body there)
     let width = stations.iter().map(|s| s.width_mm).fold(0.0, f64::max);
     let thickness = stations.iter().map(|s| s.pad_depth_mm + s.nail_height_mm).fold(0.0, f64::max);
     Some(Body { length_mm: l, width_mm: width, thickness_mm: thickness, form: Form::Stations { tip_length_mm: tip, stations } })
