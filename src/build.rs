@@ -261,6 +261,11 @@ pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool, slice: bool) -> Res
     }
     let per_assembly: Vec<_> = assemblies.par_iter().map(|a| assembly_outputs(a, out_dir, preview)).collect();
     out.files.extend(per_assembly.into_iter().flatten());
+    if let (true, Job::Fingertip(p), Some(part)) = (preview, &l.job, parts.first()) {
+        if let Some(png) = crate::fingertip::section_plot::render(p, &part.mesh) {
+            out.files.push((out_dir.join(format!("{}-sections.png", part.name)), png));
+        }
+    }
     Ok(out)
 }
 

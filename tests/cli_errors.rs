@@ -42,11 +42,35 @@ fn many_problems_are_reported_at_once_with_lines() {
     std::fs::write(d.join("params/f.toml"), t.replace("lenght_mm", "length_mm")).unwrap();
     let (code, text) = run(&d);
     assert_eq!(code, 2);
-    for needle in ["body.width_mm = -16", "sensor[0].seat_clearance_mm = -0.2", "print.chordal_tolerance_mm = 0.5", "between 0.001 and 0.05"] {
+    for needle in ["body.station[0].width_mm = -16", "sensor[0].seat_clearance_mm = -0.2", "print.chordal_tolerance_mm = 0.5", "between 0.001 and 0.05"] {
         assert!(text.contains(needle), "missing {needle:?} in:\n{text}");
     }
     assert!(text.contains("f.toml:") && text.lines().filter(|l| l.contains("f.toml:")).count() >= 3, "{text}");
     assert!(!d.join("out").exists());
+}
+
+#[test]
+fn anatomical_body_problems_name_the_station() {
+    let cases: Vec<(&str, &str, &str)> = vec![
+        // a station inside the rounded end
+        ("from_tip_mm = 7.0 ", "from_tip_mm = 5.0 ", "body.station[4].from_tip_mm = 5: stations lie before the rounded end"),
+        // out of order
+        ("from_tip_mm = 14.0 ", "from_tip_mm = 20.0 ", "body.station[2].from_tip_mm = 20: list the stations from the mount face toward the tip"),
+        // a capsule field beside the stations
+        ("tip_length_mm = 7.0", "tip_length_mm = 7.0\ntip_radius_mm = 4.5", "body.tip_radius_mm = 4.5: remove it"),
+        // a blade of a section
+        ("width_mm = 15.2", "width_mm = 60.0", "body.station[3].width_mm = 60"),
+    ];
+    for (i, (from, to, needle)) in cases.iter().enumerate() {
+        let d = dir(&format!("anat{i}"));
+        let t = default_text();
+        assert!(t.contains(from), "fixture lacks {from}");
+        std::fs::write(d.join("params/f.toml"), t.replacen(from, to, 1)).unwrap();
+        let (code, text) = run(&d);
+        assert_eq!(code, 2, "case {i}: {text}");
+        assert!(text.contains(needle), "case {i}: expected {needle:?} in\n{text}");
+        assert!(!d.join("out").exists());
+    }
 }
 
 #[test]
@@ -69,7 +93,7 @@ fn geometric_rules_name_the_offending_key() {
         ("holes = [[5.0, 1.3]]", "holes = [[12.0, 1.3]]", "must pass through the socket"),
         ("socket_width_mm = 10.0", "socket_width_mm = 15.0", "mount.socket_width_mm"),
         ("head_sink_mm = 0.1", "head_sink_mm = 1.5", "mount.screw = \"ISO 7045 M2\": hole 0: the head recess leaves"),
-        ("ISO 7045 M2", "DIN 912 M2", "mount.screw = \"DIN 912 M2\": hole 0: the head recess leaves 0.81 mm"),
+        ("ISO 7045 M2", "DIN 912 M2", "mount.screw = \"DIN 912 M2\": hole 0: the head recess leaves 0.80 mm"),
         ("ISO 7045 M2", "ISO 7045 M7", "no size \"M7\" in the table of ISO 7045"),
         ("screw = ", "hole_diameter_mm = 2.4\nscrew = ", "remove it: `mount.screw"),
         ("channel_offset_mm = 0.0", "channel_offset_mm = 7.0", "runs off the pad"),

@@ -3,6 +3,7 @@
 //! boolean).
 
 pub mod shape;
+pub mod section_plot;
 pub mod sections;
 
 use crate::error::{Error, Result};
