@@ -73,6 +73,28 @@ fn anatomical_body_problems_name_the_station() {
     }
 }
 
+/// A tail channel beside another seat's pocket leaves a wall of two nozzle widths or opens into the
+/// pocket's rim off the sensing area; the old 2s layout (a 0.3 mm wall) is refused with both fixes.
+#[test]
+fn a_channel_beside_a_pocket_leaves_a_printable_wall_or_opens_into_it() {
+    let two = std::fs::read_to_string("params/fingertip-2s.toml").unwrap();
+    for (offset, ok) in [("5.0", true), ("5.6", false), ("4.6", false), ("6.2", true)] {
+        let d = dir(&format!("chan{offset}"));
+        let t = two.replacen("channel_offset_mm = 5.0 ", &format!("channel_offset_mm = {offset} "), 1);
+        assert!(t.contains(&format!("channel_offset_mm = {offset} ")));
+        std::fs::write(d.join("params/f.toml"), t).unwrap();
+        let (code, text) = run(&d);
+        if ok {
+            // clear of the pocket (6.2 runs off the pad instead: another rule) or open into its rim
+            assert!(!text.contains("the tail channel comes"), "{offset}: {text}");
+            assert_eq!(code == 0, offset == "5.0", "{offset}: {text}");
+        } else {
+            assert_eq!(code, 2, "{offset}: {text}");
+            assert!(text.contains(&format!("sensor[0].channel_offset_mm = {offset}: the tail channel comes")) && text.contains("route it beside") && text.contains("open into the pocket's rim"), "{offset}: {text}");
+        }
+    }
+}
+
 #[test]
 fn syntax_error_names_line_and_column() {
     let d = dir("syntax");

@@ -336,7 +336,10 @@ fn inner_gap(p: &MoldParams, l: &Layout, a: &Assembled) -> (f64, usize) {
             }
         }
         n += 1;
-        let hits = tip.ray_hits(sub(c, scale(nn, 0.2)), add(c, scale(nn, 0.2)));
+        // measured along the exact surface's normal there: a sliver face's own normal can lie
+        // along the surface, and a ray along it measures nothing
+        let en = l.shape.normal_at(c);
+        let hits = tip.ray_hits(sub(c, scale(en, 0.2)), add(c, scale(en, 0.2)));
         let gap = hits.iter().map(|h| (h - 0.2).abs()).fold(f64::INFINITY, f64::min);
         worst = worst.max(gap);
     }
