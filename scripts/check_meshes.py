@@ -363,10 +363,28 @@ def seats(c):
             return "seat must be flat within the chordal tolerance", f"seat {i}: ring heights {np.round(heights, 4).tolist()} mm"
         # pocket diameter: slice at mid-depth, radius of the loop in directions away from the channel
         t, _ = frame_to_z(n, fc - n * s["seat_depth_mm"] / 2)
-        found = loop_around(c.manifold.transform(t).slice(0.0), (0.0, 0.0))
-        if found is None:
-            return "seat pocket must be present", f"seat {i}: no contour at mid-depth"
-        p = found[1]
+        cs = c.manifold.transform(t).slice(0.0)
+        found = loop_around(cs, (0.0, 0.0))
+        if found is not None:
+            p = found[1]
+        else:
+            # another sensor's tail channel opens into this pocket's rim, so the pocket's contour
+            # runs on along that channel and no loop closes round the centre: in each of 72
+            # directions take the nearest contour point (the pocket's wall, except across the
+            # opening: a minority of directions, so the median below holds)
+            pts = [np.asarray(q) for q in cs.to_polygons() if len(q) >= 3]
+            pts = np.concatenate(pts) if pts else np.zeros((0, 2))
+            near = []
+            if len(pts):
+                pts = pts[np.linalg.norm(pts, axis=1) < 0.6 * s["flat_diameter_mm"]]
+                ang = np.floor((np.arctan2(pts[:, 1], pts[:, 0]) + math.pi) / (2 * math.pi) * 72).astype(int)
+                for b in set(ang.tolist()):
+                    q = pts[ang == b]
+                    near.append(q[np.argmin(np.linalg.norm(q, axis=1))])
+            p = np.asarray(near, float).reshape(-1, 2)
+            if len(p) < 8:
+                return "seat pocket must be present", f"seat {i}: no contour at mid-depth"
+        p = np.asarray(p, float)
         dirs3 = p[:, :1] * u + p[:, 1:2] * v
         radii = np.linalg.norm(p, axis=1)
         keep = (dirs3 @ away) < 0.2 * radii
@@ -397,9 +415,16 @@ def params_match_manifest(c):
         return None
     body = c.params.get("body")
     if body and c.features.get("kind") == "fingertip":
-        for key, feat in (("width_mm", "width_mm"), ("length_mm", "length_mm"), ("thickness_mm", "thickness_mm")):
-            if abs(body[key] - c.features[feat]) > 1e-9:
-                return "manifest features must come from the parameter file", f"{key}: {body[key]} vs {c.features[feat]}"
+        if "station" in body:
+            # anatomical: the envelope of the stations (widest; highest nail over deepest pad)
+            st = body["station"]
+            want = {"width_mm": max(x["width_mm"] for x in st), "length_mm": body["length_mm"],
+                    "thickness_mm": max(x["nail_height_mm"] for x in st) + max(x["pad_depth_mm"] for x in st)}
+        else:
+            want = {k: body[k] for k in ("width_mm", "length_mm", "thickness_mm")}
+        for key, w in want.items():
+            if abs(w - c.features[key]) > 1e-9:
+                return "manifest features must come from the parameter file", f"{key}: {w} vs {c.features[key]}"
         sensors = c.params.get("sensor", [])
         # the seats are made for the sensor board the file names: pocket = board + 2 x clearance, as
         # deep as the board is thick

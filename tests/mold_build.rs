@@ -155,11 +155,11 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
         ("sprue_taper_deg = 15.0", "sprue_taper_deg = 15.0\nsprue_xy_mm = [2.0, 0.0]", "the sprue is outside the cavity"),
         ("from_tip_mm = 20.0 ", "from_tip_mm = 26.0 ", "too close to the mount face"),
         ("from_tip_mm = 20.0 ", "from_tip_mm = 11.0 ", "flat seat reaches"),
-        ("parting_below_midplane_mm = 2.0", "parting_below_midplane_mm = 0.0", "less than the draft"),
-        ("parting_below_midplane_mm = 2.0", "parting_below_midplane_mm = 5.0", "inside the pad"),
+        ("parting_below_midplane_mm = 2.5", "parting_below_midplane_mm = 0.0", "less than the draft"),
+        ("parting_below_midplane_mm = 2.5", "parting_below_midplane_mm = 5.0", "inside the pad"),
         ("vent_diameter_mm = 0.8", "vent_diameter_mm = 1.6", "wider than the cavity's rim"),
         ("demolding_tilt_deg = 5.080", "demolding_tilt_deg = 30.0", "mold.demolding_tilt_deg"),
-        ("parting_below_midplane_mm = 2.0", "parting_below_midplane_mm = 1.0", "parting_below_midplane_mm"),
+        ("parting_below_midplane_mm = 2.5", "parting_below_midplane_mm = 1.0", "parting_below_midplane_mm"),
         ("material = \"PLA\"", "material = \"ABS\"", "mold.material"),
         ("style = \"conforming\"", "style = \"wavy\"", "style = \"wavy\""),
         ("fingertip = \"fingertip-1s.toml\"", "fingertip = \"nope.toml\"", "cannot read"),
@@ -192,7 +192,7 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
     // a tilted opening with a deeper parting plane builds and passes every check
     let tilted = base
         .replacen("demolding_tilt_deg = 4.512", "demolding_tilt_deg = 5.0", 1)
-        .replacen("parting_below_midplane_mm = 2.0", "parting_below_midplane_mm = 2.2", 1)
+        .replacen("parting_below_midplane_mm = 2.5", "parting_below_midplane_mm = 2.2", 1)
         .replacen("dome_clearance_mm = 0.3 ", "dome_clearance_mm = 0.6 ", 1);
     let (code, text) = run(&d, &tilted);
     assert_eq!(code, 0, "{text}");
@@ -213,17 +213,17 @@ fn a_mold_without_its_fingertip_is_an_input_error() {
 }
 
 /// The recessed flat round a tilted seat is an upside-down pocket in the cavity's ceiling: a vent is
-/// drilled from its top (on the anatomical pad both 2s seats are tilted: the proximal one toward the
-/// mount, up the pulp's slope, the tip-side one toward the tip). scripts/check_air.py measures the
-/// trapped air independently (0 mm³).
+/// drilled from its top (on the anatomical pad the 2s proximal seat is tilted toward the mount, up
+/// the pulp's slope; the tip-side seat sits where the pad is level, at the start of the rounded
+/// end, and needs none). scripts/check_air.py measures the trapped air independently (0 mm³).
 #[test]
 fn every_tilted_flat_gets_a_vent_from_its_top() {
     // mold-1s is tilted by its seat's angle, so its flat is level: no pocket
-    for (name, expected) in [("mold-1s", 0), ("mold-2s", 2)] {
+    for (name, expected) in [("mold-1s", 0), ("mold-2s", 1)] {
         let p = load(name);
         let (l, a) = conforming::assemble(&p).unwrap();
         assert_eq!(a.pocket_vents().len(), expected, "{name}: {:?}", a.pocket_vents());
-        assert!(a.unvented_pockets.is_empty(), "{name}");
+        assert!(a.unvented_pockets.is_empty(), "{name}: {:?}", a.unvented_pockets);
         let tops = conforming::flat_pocket_tops(&p, &l);
         for q in &a.pocket_vents() {
             // the vent opens the pocket: just below its top is cavity, just above is the vent's air
@@ -252,9 +252,9 @@ fn the_cover_over_the_sensing_area_is_measured_and_stated() {
     assert!(lo < centre && hi >= centre - 1e-9 && lo > 0.5, "{lo} {hi}");
 }
 
-/// The trapped-air rule in Rust: the 2s mold's cavity, without the vents drilled from its tilted
-/// flats' pockets, traps air at each flat's high edge (0.2–0.3 mm deep, as scripts/check_air.py
-/// measures on voxels); with them, none. The 1s mold is tilted by its seat's angle: its flat is level
+/// The trapped-air rule in Rust: the 2s mold's cavity, without the vent drilled from its tilted
+/// flat's pocket, traps air at the flat's high edge (about 0.2 mm deep, as scripts/check_air.py
+/// measures on voxels); with it, none. The 1s mold is tilted by its seat's angle: its flat is level
 /// and traps nothing; opened straight (the old default) it has the same pocket.
 #[test]
 fn the_cavity_traps_air_only_without_the_pocket_vents() {
@@ -269,7 +269,7 @@ fn the_cavity_traps_air_only_without_the_pocket_vents() {
     let two = load("mold-2s");
     assert!(pockets_of(&two, true).1.is_empty());
     let (l, found) = pockets_of(&two, false);
-    assert_eq!(found.len(), 2, "{found:?}");
+    assert_eq!(found.len(), 1, "{found:?}");
     let tops = conforming::flat_pocket_tops(&two, &l);
     for f in &found {
         assert!(f.depth_mm > 0.1 && f.depth_mm < 0.4, "{found:?}");

@@ -97,7 +97,7 @@ pub struct Body {
     pub length_mm: f64,
     /// The widest section (the capsule's constant width; the widest station).
     pub width_mm: f64,
-    /// The thickest section, pad to nail (the thickest station).
+    /// The thickness, pad to nail (anatomical: the highest nail side over the deepest pad).
     pub thickness_mm: f64,
     pub form: Form,
 }
@@ -426,10 +426,11 @@ fn stations_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
     if c.problems.len() != before || stations.len() != raw.len() || !(2..=8).contains(&stations.len()) {
         return None;
     }
-    // the widest and thickest station: an upper bound of the body's sections (a station beyond the
-    // mount face, on a shortened finger, still shapes the body there)
+    // the body's envelope: the widest station, the highest nail side over the deepest pad (the
+    // interpolation never overshoots the stations; a station beyond the mount face, on a shortened
+    // finger, still shapes the body there, so this is an upper bound)
     let width = stations.iter().map(|s| s.width_mm).fold(0.0, f64::max);
-    let thickness = stations.iter().map(|s| s.pad_depth_mm + s.nail_height_mm).fold(0.0, f64::max);
+    let thickness = stations.iter().map(|s| s.nail_height_mm).fold(0.0, f64::max) + stations.iter().map(|s| s.pad_depth_mm).fold(0.0, f64::max);
     Some(Body { length_mm: l, width_mm: width, thickness_mm: thickness, form: Form::Stations { tip_length_mm: tip, stations } })
 }
 
