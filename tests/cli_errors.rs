@@ -465,7 +465,10 @@ fn a_cover_over_a_screw_recess_is_refused() {
     let ft = std::fs::read_to_string("params/fingertip-2s.toml").unwrap();
     assert!(ft.contains("holes = [[5.0, 1.3]]"), "fixture: fingertip-2s hole at z = 1.3");
     std::fs::write(d.join("params/fingertip-2s.toml"), ft.replace("holes = [[5.0, 1.3]]", "holes = [[5.0, 1.0]]")).unwrap();
-    std::fs::copy("params/mold-2s.toml", d.join("params/mold-2s.toml")).unwrap();
+    // the cover's edge 1 mm below the mid-plane (the default is 2 mm, below the recesses)
+    let mold = std::fs::read_to_string("params/mold-2s.toml").unwrap();
+    assert!(mold.contains("parting_below_midplane_mm = 2.0 "), "fixture: mold-2s parting at 2.0");
+    std::fs::write(d.join("params/mold-2s.toml"), mold.replace("parting_below_midplane_mm = 2.0 ", "parting_below_midplane_mm = 1.0 ")).unwrap();
     let (code, text) = run(&d);
     assert_eq!(code, 2, "{text}");
     assert!(

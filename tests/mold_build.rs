@@ -154,7 +154,7 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
         ("key_height_mm = 3.0", "key_height_mm = 12.0", "key holes"),
         ("sprue_taper_deg = 15.0", "sprue_taper_deg = 15.0\nsprue_xy_mm = [2.0, 0.0]", "the sprue is outside the cavity"),
         ("from_tip_mm = 20.0 ", "from_tip_mm = 26.0 ", "too close to the mount face"),
-        ("from_tip_mm = 20.0 ", "from_tip_mm = 11.0 ", "flat seat reaches"),
+        ("from_tip_mm = 20.0 ", "from_tip_mm = 11.0 ", "flat seat and its 45° spot face reach"),
         ("parting_below_midplane_mm = 2.5", "parting_below_midplane_mm = 0.0", "less than the draft"),
         ("parting_below_midplane_mm = 2.5", "parting_below_midplane_mm = 5.0", "inside the pad"),
         ("vent_diameter_mm = 0.8", "vent_diameter_mm = 1.6", "wider than the cavity's rim"),

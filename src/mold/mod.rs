@@ -367,25 +367,29 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
         None => push("mold.parting_below_midplane_mm", m.parting_below_midplane_mm.to_string(), "the pad does not reach below the parting plane".into()),
         _ => {}
     }
-    // every seat's flat region must lie inside the cover
+    // every seat's flat region, with the 45° spot face round it, must lie inside the cover, two
+    // nozzle widths clear of its end: the end wall would otherwise cut the spot face into a knife
+    // edge on the core's plug (or split a sliver off it)
+    let clear = crate::checks::min_feature::MIN_FEATURE_MM;
     for (i, (st, sp)) in l.seats.iter().zip(&p.fingertip.sensors).enumerate() {
         let (u, v, _) = mesh::frame(st.normal);
         let rf = sp.flat_diameter_mm / 2.0;
         let (mut xmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
         for k in 0..36 {
             let a = 2.0 * std::f64::consts::PI * k as f64 / 36.0;
-            let q = l.frame.to_mold(mesh::add(st.flat_center, mesh::add(mesh::scale(u, rf * a.cos()), mesh::scale(v, rf * a.sin()))));
-            xmin = xmin.min(q[0]);
-            zmax = zmax.max(q[2]);
+            let on_rim = |r: f64| l.frame.to_mold(mesh::add(st.flat_center, mesh::add(mesh::scale(u, r * a.cos()), mesh::scale(v, r * a.sin()))));
+            // the spot face flares from the rim at 45° and meets the pad within the flat's depth
+            xmin = xmin.min(on_rim(rf + st.flat_depth)[0]);
+            zmax = zmax.max(on_rim(rf)[2]);
         }
-        if xmin < l.x_start_m + 0.5 {
+        if xmin < l.x_start_m + clear {
             push(
                 "cover.from_tip_mm",
                 c.from_tip_mm.to_string(),
                 format!(
-                    "the cover ends at x = {:.2} mm but sensor[{i}]'s flat seat reaches x = {xmin:.2} mm (mold frame): cover at least {:.1} mm from the tip",
+                    "the cover ends at x = {:.2} mm but sensor[{i}]'s flat seat and its 45° spot face reach x = {xmin:.2} mm (mold frame), less than {clear} mm (two nozzle widths) inside the cover: cover at least {:.1} mm from the tip",
                     l.x_start_m,
-                    c.from_tip_mm + (l.x_start_m - xmin) + 0.5
+                    c.from_tip_mm + (l.x_start_m - xmin) + clear
                 ),
             );
         }
