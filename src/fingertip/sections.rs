@@ -64,17 +64,23 @@ impl Monotone {
         }
     }
 
-    /// Largest |second derivative| (at the piece ends, where a cubic's is largest).
+    /// The station positions (the pieces' ends).
+    pub fn knots(&self) -> &[f64] {
+        &self.x
+    }
+
+    /// Largest |second derivative| on piece i (at its ends, where a cubic's is largest).
+    pub fn piece_curvature(&self, i: usize) -> f64 {
+        let h = self.x[i + 1] - self.x[i];
+        let (y0, y1, m0, m1) = (self.y[i], self.y[i + 1], self.m[i], self.m[i + 1]);
+        let a = (6.0 * (y1 - y0) / h - 4.0 * m0 - 2.0 * m1) / h;
+        let b = (-6.0 * (y1 - y0) / h + 2.0 * m0 + 4.0 * m1) / h;
+        a.abs().max(b.abs())
+    }
+
+    /// Largest |second derivative| anywhere (0 outside the stations, where the value is held).
     pub fn max_curvature(&self) -> f64 {
-        let mut worst = 0.0f64;
-        for i in 0..self.x.len().saturating_sub(1) {
-            let h = self.x[i + 1] - self.x[i];
-            let (y0, y1, m0, m1) = (self.y[i], self.y[i + 1], self.m[i], self.m[i + 1]);
-            let a = (6.0 * (y1 - y0) / h - 4.0 * m0 - 2.0 * m1) / h;
-            let b = (-6.0 * (y1 - y0) / h + 2.0 * m0 + 4.0 * m1) / h;
-            worst = worst.max(a.abs()).max(b.abs());
-        }
-        worst
+        (0..self.x.len().saturating_sub(1)).map(|i| self.piece_curvature(i)).fold(0.0, f64::max)
     }
 }
 

@@ -477,14 +477,29 @@ impl Shape {
     fn stations_mesh(&self, tol: f64, what: &str) -> Result<Mesh> {
         let Profile::Stations { x_cap, cap, wh, zp, zd, .. } = &self.prof else { unreachable!("stations profile") };
         let s_max = [wh, zp, zd].iter().map(|f| (0..=100).map(|i| f.at(x_cap * i as f64 / 100.0)).fold(0.0, f64::max)).fold(0.0, f64::max);
-        let k_max = [wh, zp, zd].iter().map(|f| f.max_curvature()).fold(0.0, f64::max);
         let step = |size: f64| (4.0 * tol / size).sqrt();
         let n_phi = 4 * ((2.0 * std::f64::consts::PI / step(s_max)) / 4.0).ceil().max(2.0) as usize;
-        let dx = if k_max > 0.0 { (8.0 * tol / (2.0 * k_max)).sqrt().min(2.0) } else { 2.0 };
-        let n_run = ((x_cap / dx).ceil() as usize).max(1);
         let n_cap = ((std::f64::consts::FRAC_PI_2 / step(s_max.max(*cap))).ceil() as usize).max(2);
-        // rows: x and base radius g
-        let mut rows: Vec<(f64, f64)> = (0..=n_run).map(|i| (x_cap * i as f64 / n_run as f64, 1.0)).collect();
+        // rows along the run, spaced per piece between stations by that piece's curvature (where
+        // the scales are held, before the first and after the last station, 2 mm apart)
+        let mut cuts = vec![0.0];
+        cuts.extend(wh.knots().iter().copied().filter(|&k| k > 0.0 && k < *x_cap));
+        cuts.push(*x_cap);
+        let knots = wh.knots();
+        let curvature_at = |a: f64, b: f64| -> f64 {
+            (0..knots.len().saturating_sub(1))
+                .filter(|&i| knots[i] < b - 1e-12 && knots[i + 1] > a + 1e-12)
+                .map(|i| [wh, zp, zd].iter().map(|f| f.piece_curvature(i)).fold(0.0, f64::max))
+                .fold(0.0, f64::max)
+        };
+        let mut rows: Vec<(f64, f64)> = vec![(0.0, 1.0)];
+        for w in cuts.windows(2) {
+            let k = curvature_at(w[0], w[1]);
+            // chord sag along x: dx² / 8 · k ≤ tol / 2
+            let dx = if k > 0.0 { (4.0 * tol / k).sqrt().min(2.0) } else { 2.0 };
+            let n = (((w[1] - w[0]) / dx).ceil() as usize).max(1);
+            rows.extend((1..=n).map(|i| (w[0] + (w[1] - w[0]) * i as f64 / n as f64, 1.0)));
+        }
         for i in 1..n_cap {
             let th = std::f64::consts::FRAC_PI_2 * i as f64 / n_cap as f64;
             rows.push((x_cap + cap * th.sin(), th.cos()));
