@@ -144,3 +144,50 @@ fn corrupted_files_never_panic() {
         })
         .unwrap();
 }
+
+/// The anatomical form: random stations (3–5, from a little beyond the mount face to the start of a
+/// random rounded end; widths, pad depths and nail heights free, so sections taper, bulge or pinch)
+/// on the same random seats and mounts. Valid ones build one closed body of the expected genus that
+/// passes every check; the rest are input errors naming a path.
+#[test]
+fn random_anatomical_sets_build_valid_meshes_or_clear_errors() {
+    let valid = AtomicUsize::new(0);
+    let invalid = AtomicUsize::new(0);
+    let cases: u32 = std::env::var("TIPFORGE_PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(300);
+    // one finger's proportions per case, each station within −15 % … +10 % of them
+    let stations = (3usize..6, 4.0..9.0f64, 0.0..3.0f64, (14.0..18.5f64, 4.5..7.0f64, 6.0..9.0f64), proptest::collection::vec((0.85..1.1f64, 0.85..1.1f64, 0.85..1.1f64), 5));
+    let mut runner = TestRunner::new_with_rng(Config { cases, failure_persistence: None, ..Config::default() }, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
+    runner
+        .run(&(gen(), stations), |(g, (n, tip, beyond, base, secs))| {
+            let capsule = toml_of(&g);
+            let a = capsule.find("[body]").unwrap();
+            let b = capsule.find("[[sensor]]").unwrap();
+            let mut body = format!("[body]\nlength_mm = {}\ntip_length_mm = {tip}\n", g.length);
+            for (k, (fw, fp, fh)) in secs.iter().take(n).enumerate() {
+                let (w, p, h) = (base.0 * fw, base.1 * fp, base.2 * fh);
+                // from a little beyond the mount face down to the start of the rounded end
+                let from_tip = g.length + beyond - (g.length + beyond - tip) * k as f64 / (n - 1) as f64;
+                body += &format!("[[body.station]]\nfrom_tip_mm = {from_tip}\nwidth_mm = {w}\npad_depth_mm = {p}\nnail_height_mm = {h}\n");
+            }
+            let text = format!("{}{}{}", &capsule[..a], body, &capsule[b..]);
+            let src = SourceFile::parse("random.toml", text.clone()).expect("generated TOML parses");
+            match tipforge::fingertip::load(&src, "random", std::path::Path::new("params")) {
+                Ok(p) => {
+                    let part = tipforge::fingertip::build(&p).map_err(|e| TestCaseError::fail(format!("valid params failed to build: {e}\n{text}")))?;
+                    let v = tipforge::checks::run(&part);
+                    prop_assert!(v.is_empty(), "checks failed: {:?}\n{}", v, text);
+                    prop_assert_eq!(part.solid.genus(), 2 * p.mount.holes.len() as i32);
+                    prop_assert!(part.volume_mm3() > 0.0);
+                    valid.fetch_add(1, Ordering::Relaxed);
+                }
+                Err(Error::Input(problems)) => {
+                    common::rejected_clearly(&problems)?;
+                    invalid.fetch_add(1, Ordering::Relaxed);
+                }
+                Err(e) => return Err(TestCaseError::fail(format!("unexpected error kind: {e}"))),
+            }
+            Ok(())
+        })
+        .unwrap();
+    common::enough_of_both("anatomical fingertips", valid.load(Ordering::Relaxed), invalid.load(Ordering::Relaxed), cases, 300, 40, 10);
+}
