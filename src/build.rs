@@ -233,14 +233,10 @@ pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool, slice: bool) -> Res
     let sha = manifest::sha256_hex(l.src.text.as_bytes());
     let mut out = Outputs { files: Vec::new(), entries: Vec::new(), summaries: Vec::new(), violations, sections, notes };
     let per_part: Vec<PartOutputs> = parts.par_iter().map(|part| part_outputs(part, out_dir, preview, slice)).collect::<Result<_>>()?;
-    for (part, (violations, advice, files, print)) in parts.iter().zip(per_part) {
+    for (part, (violations, files, print)) in parts.iter().zip(per_part) {
         out.violations.extend(violations);
         let names: Vec<String> = files.iter().filter_map(|(p, _)| p.file_name().and_then(|n| n.to_str()).map(str::to_string)).collect();
         let mut entry = manifest::entry(part, &l.rel, &sha, &names);
-        if let serde_json::Value::Object(e) = &mut entry {
-            e.insert("printability".into(), serde_json::json!(advice.iter().map(|v| format!("{}: {}", v.rule, v.measured)).collect::<Vec<_>>()));
-        }
-        out.notes.extend(advice.iter().map(|v| format!("{}: printability: {} (measured: {})", v.part, v.rule, v.measured)));
         if let (Some(pr), serde_json::Value::Object(e)) = (&print, &mut entry) {
             e.insert(
                 "print".into(),
@@ -270,11 +266,10 @@ pub fn outputs_of(l: &Loaded, out_dir: &Path, preview: bool, slice: bool) -> Res
 }
 
 /// A part's checks and files: STL, 3MF when asked, PNG preview when asked.
-type PartOutputs = (Vec<crate::checks::Violation>, Vec<crate::checks::Violation>, Vec<(PathBuf, Vec<u8>)>, Option<crate::slicer::Print>);
+type PartOutputs = (Vec<crate::checks::Violation>, Vec<(PathBuf, Vec<u8>)>, Option<crate::slicer::Print>);
 
 fn part_outputs(part: &Part, out_dir: &Path, preview: bool, slice: bool) -> Result<PartOutputs> {
     let violations = crate::checks::run(part);
-    let advice = crate::checks::advise(part);
     let stl_bytes = stl::to_bytes(&part.mesh);
     let print = if slice && part.process == crate::part::Process::Printed { Some(crate::slicer::slice(&part.name, &stl_bytes)?) } else { None };
     let mut files = vec![(out_dir.join(format!("{}.stl", part.name)), stl_bytes)];
@@ -284,7 +279,7 @@ fn part_outputs(part: &Part, out_dir: &Path, preview: bool, slice: bool) -> Resu
     if preview {
         files.push((out_dir.join(format!("{}.png", part.name)), crate::preview::render(&part.mesh, &part.name)));
     }
-    Ok((violations, advice, files, print))
+    Ok((violations, files, print))
 }
 
 /// An assembly view's 3MF (reference objects typed as such) and preview.

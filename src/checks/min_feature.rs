@@ -22,6 +22,9 @@ pub const MAX_WALL_ANGLE_DEG: f64 = 50.0;
 /// Narrow surface smaller than a nozzle's footprint is below what the nozzle resolves (mm²).
 const MIN_NARROW_AREA_MM2: f64 = NOZZLE_MM * NOZZLE_MM;
 
+/// The rule as stated in a violation.
+pub const RULE: &str = "no printed wall, lip or fin may be narrower than two nozzle widths (0.8 mm for a 0.4 mm nozzle): move the features apart or widen the wall";
+
 /// Where a part is narrow: the narrow surface's area, the narrowest spot and its width.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Narrow {
@@ -37,7 +40,7 @@ pub fn check(part: &Part) -> Option<Violation> {
     let n = narrow_walls(&part.mesh, MIN_FEATURE_MM);
     (n.area_mm2 > MIN_NARROW_AREA_MM2).then(|| Violation {
         part: part.name.clone(),
-        rule: "no printed wall, lip or fin may be narrower than two nozzle widths (0.8 mm for a 0.4 mm nozzle)",
+        rule: RULE,
         measured: format!(
             "{:.2} mm² of surface on walls narrower than {MIN_FEATURE_MM} mm, the narrowest {:.3} mm at ({:.2}, {:.2}, {:.2})",
             n.area_mm2, n.narrowest_mm, n.at[0], n.at[1], n.at[2]

@@ -24,17 +24,9 @@ impl fmt::Display for Violation {
     }
 }
 
-/// Printability findings that do not stop a build yet: features a 0.4 mm nozzle cannot print
-/// (walls, lips and fins narrower than 0.8 mm). The default two-sensor fingertip and its mold have
-/// such features today (issue 18, item 5): they are reported in the summary and the manifest until
-/// the design is changed, then this becomes a check.
-pub fn advise(part: &Part) -> Vec<Violation> {
-    [min_feature::check].iter().filter_map(|c| c(part)).collect()
-}
-
 /// Runs every check on a part.
 pub fn run(part: &Part) -> Vec<Violation> {
-    [status::check, orientation::check, genus::check, bodies::check, on_bed::check].iter().filter_map(|c| c(part)).collect()
+    [status::check, orientation::check, genus::check, bodies::check, on_bed::check, min_feature::check].iter().filter_map(|c| c(part)).collect()
 }
 
 #[cfg(test)]

@@ -20,3 +20,10 @@ pub fn enough_of_both(what: &str, valid: usize, invalid: usize, cases: u32, full
     assert!(valid >= min_valid || cases < full, "only {valid} valid random {what} of {cases}; widen the generator");
     assert!(invalid >= min_invalid || cases < full, "the generator must also produce invalid {what} ({invalid})");
 }
+
+/// A part refused only by the minimum-feature check: valid parameters whose geometry leaves a wall
+/// under two nozzle widths. The build stops there with the check's message (nothing written): a
+/// clear refusal, counted apart.
+pub fn only_sub_nozzle(v: &[tipforge::checks::Violation]) -> bool {
+    !v.is_empty() && v.iter().all(|x| x.rule == tipforge::checks::min_feature::RULE)
+}
