@@ -164,6 +164,7 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
         ("style = \"conforming\"", "style = \"wavy\"", "style = \"wavy\""),
         ("fingertip = \"fingertip-1s.toml\"", "fingertip = \"nope.toml\"", "cannot read"),
         ("[mold]", "[mold]\nkey_diameter = 4.0", "did you mean `key_diameter_mm`"),
+        ("[mold]", "[mold]\ncavities = 0", "mold.cavities = 0: must be a whole number from 1 to 12"),
     ];
     for (from, to, needle) in cases {
         assert!(base.contains(from), "{from}");
@@ -305,4 +306,41 @@ fn the_batch_advice_sizes_the_pour() {
     // at least 5 g mixed: 7 covers (6 would be 4.99 g)
     assert_eq!(b["min_batch_g"].as_f64().unwrap(), 5.0);
     assert_eq!(b["covers_per_batch"].as_f64().unwrap(), 7.0);
+}
+
+/// `cavities = N` casts N covers in one pour: the core and the shell carry N cavities side by side,
+/// each piece still one body passing every check (the core's genus grows with its sprues and
+/// vents), N times the material less the flanges' overlap; the summary says what one pour casts
+/// against a sound batch, and the flat style refuses it.
+#[test]
+fn several_cavities_cast_several_covers_in_one_pour() {
+    let one = load("mold-1s");
+    let mut three = one.clone();
+    three.mold.cavities = 3;
+    let (b1, b3) = (mold::build(&one).unwrap(), mold::build(&three).unwrap());
+    assert!(b3.violations.is_empty(), "{:?}", b3.violations);
+    for (p1, p3) in b1.parts.iter().zip(&b3.parts) {
+        let v = tipforge::checks::run(p3);
+        assert!(v.is_empty(), "{}: {v:?}", p3.name);
+        if p3.name.ends_with("-core") || p3.name.ends_with("-shell") {
+            assert_eq!(p3.solid.bodies(), 1, "{}", p3.name);
+            let ratio = p3.volume_mm3() / p1.volume_mm3();
+            assert!(ratio > 2.85 && ratio < 3.0 + 1e-9, "{}: {ratio}", p3.name);
+        } else {
+            // the cover itself is one cover, cast three at a time
+            assert!((p3.volume_mm3() - p1.volume_mm3()).abs() < 1e-6);
+        }
+    }
+    let core = b3.parts.iter().find(|p| p.name.ends_with("-core")).unwrap();
+    let core1 = b1.parts.iter().find(|p| p.name.ends_with("-core")).unwrap();
+    assert_eq!(core.solid.genus(), 3 * core1.solid.genus());
+    assert!(b3.notes.iter().any(|n| n.contains("3 cavities cast 3 covers per pour") && n.contains("set mold.cavities = ")), "{:?}", b3.notes);
+    assert!(b1.notes.iter().any(|n| n.contains("1 cavity casts 1 cover per pour")), "{:?}", b1.notes);
+    assert_eq!(b3.manifest["mold-1s"]["cavities"], 3);
+    // the flat style has one tray
+    let d = dir("flatcav");
+    let text = std::fs::read_to_string("params/mold-flat.toml").unwrap();
+    let (code, out) = run(&d, &format!("{text}\n").replacen("[mold]", "[mold]\ncavities = 2", 1));
+    assert_eq!(code, 2, "{out}");
+    assert!(out.contains("mold.cavities = 2") && out.contains("the flat style casts one sheet"), "{out}");
 }

@@ -260,6 +260,23 @@ impl Assembled {
     }
 }
 
+/// What one pour of this mold casts, against the smallest sound batch (`mold::batch`): the
+/// number of cavities that pours a whole batch at once.
+fn pour_note(name: &str, n: usize, mat: &serde_json::Value) -> String {
+    let g = |k: &str| mat[k].as_f64().unwrap_or(f64::NAN);
+    let mixed = g("sylgard_base_g") + g("curing_agent_g");
+    let batch = mat["batch"]["covers_per_batch"].as_f64().unwrap_or(1.0) as usize;
+    let pour = format!("{name}: {n} cavit{} cast{} {n} cover{} per pour ({:.2} g mixed)", if n == 1 { "y" } else { "ies" }, if n == 1 { "s" } else { "" }, if n == 1 { "" } else { "s" }, n as f64 * mixed);
+    if n >= batch {
+        format!("{pour}: a sound batch in one pour")
+    } else {
+        format!("{pour}; a sound batch casts {batch}: set mold.cavities = {batch} to pour it at once ({:.2} g)", batch as f64 * mixed)
+    }
+}
+
+/// Adjacent cavities' flanges overlap by this (mm), so the pieces unite into one body each.
+pub const CAVITY_OVERLAP_MM: f64 = 1.0;
+
 pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let name = p.name.as_str();
     let (l, a) = assemble(p)?;
@@ -270,6 +287,18 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let shell_print = a.shell.translate([0.0, 0.0, -z_lo]);
     let core_print = a.core.place([1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [0.0, 0.0, a.z_top]);
     let cover_print = a.cover.place([0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0; 3]);
+    // several cavities: copies side by side along y, their flanges overlapping by 1 mm so that each
+    // piece stays one body (the assembly view and the assembled-mold checks are one cavity's)
+    let n = p.mold.cavities;
+    let pitch = a.bounds.1[1] - a.bounds.0[1] - CAVITY_OVERLAP_MM;
+    let side_by_side = |one: &Solid| -> Solid {
+        if n == 1 {
+            return one.clone();
+        }
+        let copies: Vec<Solid> = (0..n).map(|i| one.translate([0.0, pitch * (i as f64 - (n - 1) as f64 / 2.0), 0.0])).collect();
+        Solid::union_all(&copies).expect("at least one cavity")
+    };
+    let (shell_print, core_print) = (side_by_side(&shell_print), side_by_side(&core_print));
     let cover_name = p.cover_name();
     let mat = material(p, a.cover.volume());
     let piece = |solid: Solid, suffix: &str, genus: i32, to_assembled: serde_json::Value| Part {
@@ -292,7 +321,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         extra: Default::default(),
     };
     // to_assembled: rows of a 3×4 matrix [R | t] mapping the print pose back to the assembly
-    let core = piece(core_print, "core", 1 + a.vents.len() as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
+    let core = piece(core_print, "core", (n * (1 + a.vents.len())) as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
     let shell = piece(shell_print, "shell", 0, json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]]));
     let domes: Vec<serde_json::Value> = l
         .domes
@@ -431,9 +460,12 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
             .collect::<Vec<_>>()),
     );
     entry.insert("cover_thickness_mm".into(), json!(p.cover.thickness_mm));
+    entry.insert("cavities".into(), json!(n));
+    entry.insert("cavity_pitch_mm".into(), json!(if n > 1 { pitch } else { 0.0 }));
     entry.insert("chordal_tolerance_mm".into(), json!(p.mold.chordal_tolerance_mm));
     manifest.insert(name.to_string(), serde_json::Value::Object(entry));
     let mut notes = notes(name, &mat);
+    notes.push(pour_note(name, n, &mat));
     for (i, c) in over_domes.as_array().into_iter().flatten().enumerate() {
         let f = |k: &str| c[k].as_f64().unwrap_or(f64::NAN);
         notes.push(format!(

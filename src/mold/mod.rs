@@ -306,6 +306,9 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
         }
     }
     if p.style == Style::Flat {
+        if m.cavities > 1 {
+            push("mold.cavities", m.cavities.to_string(), "the flat style casts one sheet in a tray: remove `cavities` or use style = \"conforming\"".into());
+        }
         return out;
     }
     let s = &l.shape;

@@ -39,6 +39,7 @@ pub struct RawMold {
     pub sprue_xy_mm: Option<Vec<f64>>,
     pub vent_count: Option<i64>,
     pub vent_diameter_mm: Option<f64>,
+    pub cavities: Option<i64>,
     pub material: Option<String>,
     pub min_detail_mm: Option<f64>,
     pub min_wall_mm: Option<f64>,
@@ -121,6 +122,8 @@ pub struct Mold {
     pub sprue_xy_mm: Option<[f64; 2]>,
     pub vent_count: usize,
     pub vent_diameter_mm: f64,
+    /// Covers cast at once: the core and the shell carry this many cavities side by side.
+    pub cavities: usize,
     pub material: Material,
     pub min_detail_mm: f64,
     pub min_wall_mm: f64,
@@ -264,6 +267,7 @@ fn mold_params(c: &mut Collector, r: &RawMold) -> Option<Mold> {
     };
     let vents = count(c, r.vent_count, 3, "mold.vent_count", 1, 12);
     let vent_d = c.or_within(r.vent_diameter_mm, 0.8, "mold.vent_diameter_mm", 0.3, 5.0);
+    let cavities = count(c, r.cavities, 1, "mold.cavities", 1, 12);
     let material = match r.material.as_deref() {
         None | Some("PLA") | Some("pla") => Some(Material::Pla),
         Some("PETG") | Some("petg") => Some(Material::Petg),
@@ -296,6 +300,7 @@ fn mold_params(c: &mut Collector, r: &RawMold) -> Option<Mold> {
         sprue_xy_mm: sprue_xy?,
         vent_count: vents?,
         vent_diameter_mm: vent_d?,
+        cavities: cavities?,
         material: material?,
         min_detail_mm: detail?,
         min_wall_mm: min_wall?,
