@@ -164,7 +164,7 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
         ("style = \"conforming\"", "style = \"wavy\"", "style = \"wavy\""),
         ("fingertip = \"fingertip-1s.toml\"", "fingertip = \"nope.toml\"", "cannot read"),
         ("[mold]", "[mold]\nkey_diameter = 4.0", "did you mean `key_diameter_mm`"),
-        ("[mold]", "[mold]\ncavities = 0", "mold.cavities = 0: must be a whole number from 1 to 12"),
+        ("cavities = 1 ", "cavities = 0 ", "mold.cavities = 0: must be a whole number from 1 to 12"),
     ];
     for (from, to, needle) in cases {
         assert!(base.contains(from), "{from}");
