@@ -41,6 +41,9 @@ fn narrow_walls_are_found_where_the_design_has_them_and_nowhere_else() {
     let part = tipforge::fingertip::build(&p).unwrap();
     let lip = tipforge::checks::min_feature::narrow_walls(&part.mesh, tipforge::checks::min_feature::MIN_FEATURE_MM);
     assert!(two.area_mm2 < 0.16 && lip.area_mm2 > 0.5, "2s {two:?}, with the old lip {lip:?}");
+    // it points at the lip (beside the proximal pocket, on the pad), not at a sliver elsewhere
+    // (print frame: y, z, x of the design frame)
+    assert!(lip.at[0] > 3.5 && lip.at[0] < 6.5 && lip.at[1] < -2.0 && lip.at[2] > 8.0 && lip.at[2] < 18.0, "{lip:?}");
     let refused = tipforge::checks::run(&part);
     assert!(refused.iter().any(|v| v.rule == tipforge::checks::min_feature::RULE && v.measured.contains("narrower than 0.8 mm")), "{refused:?}");
 }

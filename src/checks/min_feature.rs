@@ -57,6 +57,7 @@ pub fn narrow_walls(mesh: &Mesh, min_mm: f64) -> Narrow {
 fn narrow_walls_with(mesh: &Mesh, min_mm: f64, facing: f64) -> Narrow {
     let grid = Grid::new(mesh, min_mm);
     let mut out = Narrow { area_mm2: 0.0, narrowest_mm: f64::INFINITY, at: [0.0; 3] };
+    let mut found: Vec<(P3, f64, f64)> = Vec::new();
     for (ti, t) in mesh.triangles.iter().enumerate() {
         let [a, b, c] = t.map(|k| mesh.vertices[k as usize]);
         let n = cross(sub(b, a), sub(c, a));
@@ -83,13 +84,25 @@ fn narrow_walls_with(mesh: &Mesh, min_mm: f64, facing: f64) -> Narrow {
                     if let Some((d, exit_normal)) = grid.first_exit(mesh, ti, p, inward, min_mm) {
                         if dot(exit_normal, outward) <= facing {
                             out.area_mm2 += cell_area;
-                            if d < out.narrowest_mm {
-                                out.narrowest_mm = d;
-                                out.at = p;
-                            }
+                            found.push((p, d, cell_area));
                         }
                     }
                 }
+            }
+        }
+    }
+    // where to point: the narrowest spot of the largest narrow region (most narrow surface within a
+    // millimetre), not a stray sliver elsewhere whose width is near zero but whose area is nothing
+    let near = |a: P3, b: P3| norm(sub(a, b)) <= 1.0;
+    // (candidates thinned to at most 400, so a part with very many narrow samples stays cheap)
+    let stride = found.len().div_ceil(400).max(1);
+    let mass = |q: P3| found.iter().filter(|f| near(f.0, q)).map(|f| f.2).sum::<f64>();
+    let best = found.iter().step_by(stride).map(|f| (f.0, mass(f.0))).max_by(|a, b| a.1.total_cmp(&b.1));
+    if let Some((centre, _)) = best {
+        for &(p, d, _) in found.iter().filter(|f| near(f.0, centre)) {
+            if d < out.narrowest_mm {
+                out.narrowest_mm = d;
+                out.at = p;
             }
         }
     }

@@ -161,6 +161,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let mut manifest = Map::new();
     manifest.insert(name.to_string(), serde_json::Value::Object(entry));
     let mut lines = notes(name, &mat);
+    lines.push(format!("{name}: the tray casts one sheet per pour: print as many trays as the batch casts covers"));
     lines.push(format!("{name}: flat sheet {:.1} × {:.1} mm (+{mg} mm margin to cut away); bending it round the pad strains its outer face by {:.0} %", len, wid, strain * 100.0));
     Ok(MoldBuild { parts: vec![tray_part, cover], assemblies: vec![], violations, manifest, notes: lines })
 }

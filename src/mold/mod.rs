@@ -509,7 +509,7 @@ pub fn notes(name: &str, mat: &Value) -> Vec<String> {
             let b = &mat["batch"];
             let f = |k: &str| b[k].as_f64().unwrap_or(f64::NAN);
             format!(
-                "{name}: batch: one cover's {:.2} g of curing agent needs a {:.4} g scale to hold the ratio within {:.0} %; on a {} g scale mix at least {:.1} g ({:.2} g of agent) and cast {:.0} covers from it (print that many molds)",
+                "{name}: batch: one cover's {:.2} g of curing agent needs a {:.4} g scale to hold the ratio within {:.0} %; on a {} g scale mix at least {:.1} g ({:.2} g of agent) and cast {:.0} covers from it",
                 g("curing_agent_g"),
                 f("scale_needed_for_one_cover_g"),
                 100.0 * f("ratio_tolerance"),
