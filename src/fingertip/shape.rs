@@ -36,7 +36,7 @@ enum Profile {
         tp: (f64, f64),
     },
     /// g = 1 to x_cap, then a quarter ellipse of length `cap`; scales through the stations.
-    Stations { x_cap: f64, cap: f64, wh: Monotone, zp: Monotone, zd: Monotone, at: Vec<f64> },
+    Stations { x_cap: f64, cap: f64, wh: Monotone, zp: Monotone, zd: Monotone },
 }
 
 impl Shape {
@@ -59,7 +59,7 @@ impl Shape {
             Form::Stations { tip_length_mm, stations } => {
                 let at: Vec<f64> = stations.iter().map(|s| l - s.from_tip_mm).collect();
                 let f = |g: &dyn Fn(&crate::params::fingertip::Station) -> f64| Monotone::new(&at, &stations.iter().map(g).collect::<Vec<_>>());
-                let prof = Profile::Stations { x_cap: l - tip_length_mm, cap: *tip_length_mm, wh: f(&|s| s.width_mm / 2.0), zp: f(&|s| s.pad_depth_mm), zd: f(&|s| s.nail_height_mm), at };
+                let prof = Profile::Stations { x_cap: l - tip_length_mm, cap: *tip_length_mm, wh: f(&|s| s.width_mm / 2.0), zp: f(&|s| s.pad_depth_mm), zd: f(&|s| s.nail_height_mm) };
                 let pad_depth = stations.iter().map(|s| s.pad_depth_mm).fold(0.0, f64::max);
                 let dorsal = stations.iter().map(|s| s.nail_height_mm).fold(0.0, f64::max);
                 Shape { length: l, pad_depth, dorsal_height: dorsal, prof }
@@ -70,14 +70,6 @@ impl Shape {
     /// Whether the body is lofted through stations (else the capsule form).
     pub fn is_anatomical(&self) -> bool {
         matches!(self.prof, Profile::Stations { .. })
-    }
-
-    /// Station positions (x from the mount face), for the anatomical form.
-    pub fn stations_at(&self) -> Vec<f64> {
-        match &self.prof {
-            Profile::Stations { at, .. } => at.clone(),
-            Profile::Capsule { .. } => Vec::new(),
-        }
     }
 
     /// Where the rounded end begins: the scales are constant beyond it.
