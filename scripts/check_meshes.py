@@ -409,6 +409,35 @@ def bounding_box(c):
         return "print orientation: the mount face must lie on the bed (z = 0)", f"min z {c.mesh.bounds[0][2]}"
 
 
+def monotone(xs, ys, t):
+    """The monotone cubic (Fritsch-Butland slopes, level ends, held beyond them) at t: the
+    interpolation the anatomical body is lofted with, written again from its description."""
+    n = len(xs)
+    if n < 2 or t <= xs[0]:
+        return ys[0]
+    if t >= xs[-1]:
+        return ys[-1]
+    d = [(ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i]) for i in range(n - 1)]
+    m = [0.0] * n
+    for i in range(1, n - 1):
+        h0, h1 = xs[i] - xs[i - 1], xs[i + 1] - xs[i]
+        if d[i - 1] * d[i] > 0:
+            m[i] = 3 * (h0 + h1) / ((2 * h1 + h0) / d[i - 1] + (h1 + 2 * h0) / d[i])
+    i = max(k for k in range(n - 1) if xs[k] <= t)
+    h = xs[i + 1] - xs[i]
+    u = (t - xs[i]) / h
+    return ((2 * u**3 - 3 * u**2 + 1) * ys[i] + (u**3 - 2 * u**2 + u) * h * m[i]
+            + (-2 * u**3 + 3 * u**2) * ys[i + 1] + (u**3 - u**2) * h * m[i + 1])
+
+
+def envelope(xs, ys, x_cap):
+    """Largest value of the interpolation over [0, x_cap], sampled every 0.05 mm and at the
+    stations."""
+    steps = max(1, int(x_cap / 0.05))
+    ts = [x_cap * k / steps for k in range(steps + 1)] + [x for x in xs if 0 <= x <= x_cap]
+    return max(monotone(xs, ys, t) for t in ts)
+
+
 @rule
 def params_match_manifest(c):
     if c.params is None:
@@ -416,14 +445,15 @@ def params_match_manifest(c):
     body = c.params.get("body")
     if body and c.features.get("kind") == "fingertip":
         if "station" in body:
-            # anatomical: the envelope of the stations (widest; highest nail over deepest pad)
-            st = body["station"]
-            want = {"width_mm": max(x["width_mm"] for x in st), "length_mm": body["length_mm"],
-                    "thickness_mm": max(x["nail_height_mm"] for x in st) + max(x["pad_depth_mm"] for x in st)}
+            # anatomical: the envelope of the stations' interpolation over the body (widest; highest
+            # nail over deepest pad)
+            st, L, tip = body["station"], body["length_mm"], body["tip_length_mm"]
+            env = {k: envelope([L - x["from_tip_mm"] for x in st], [x[k] for x in st], L - tip) for k in ("width_mm", "pad_depth_mm", "nail_height_mm")}
+            want = {"width_mm": env["width_mm"], "length_mm": L, "thickness_mm": env["nail_height_mm"] + env["pad_depth_mm"]}
         else:
             want = {k: body[k] for k in ("width_mm", "length_mm", "thickness_mm")}
         for key, w in want.items():
-            if abs(w - c.features[key]) > 1e-9:
+            if abs(w - c.features[key]) > 1e-6:
                 return "manifest features must come from the parameter file", f"{key}: {w} vs {c.features[key]}"
         sensors = c.params.get("sensor", [])
         # the seats are made for the sensor board the file names: pocket = board + 2 x clearance, as

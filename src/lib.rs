@@ -7,6 +7,7 @@ pub mod error;
 pub mod export;
 pub mod fingertip;
 pub mod hand;
+pub mod interp;
 pub mod mesh;
 pub mod mold;
 pub mod params;

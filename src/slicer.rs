@@ -10,6 +10,8 @@ use std::process::Command;
 
 /// The print profile, embedded so the binary slices the same way wherever it runs.
 pub const PROFILE: &str = include_str!("../scripts/slicer/pla-0.4-0.2.ini");
+/// The bed of the repository's print profile (x, y in mm; `bed_shape` in scripts/slicer/pla-0.4-0.2.ini).
+pub const PROFILE_BED_MM: [f64; 2] = [250.0, 210.0];
 pub const PROFILE_NAME: &str = "scripts/slicer/pla-0.4-0.2.ini";
 const PROGRAM: &str = "prusa-slicer";
 

@@ -60,6 +60,10 @@ fn anatomical_body_problems_name_the_station() {
         ("tip_length_mm = 7.0", "tip_length_mm = 7.0\ntip_radius_mm = 4.5", "body.tip_radius_mm = 4.5: remove it"),
         // a blade of a section
         ("width_mm = 15.2", "width_mm = 60.0", "body.station[3].width_mm = 60"),
+        // a corner for a tip: refused before it blows the molds' tessellation up
+        ("tip_length_mm = 7.0", "tip_length_mm = 0.5", "body.tip_length_mm = 0.5: below 2 mm"),
+        // far beyond the mount face
+        ("from_tip_mm = 28.0 ", "from_tip_mm = 40.0 ", "body.station[0].from_tip_mm = 40: more than 10 mm beyond the mount face"),
     ];
     for (i, (from, to, needle)) in cases.iter().enumerate() {
         let d = dir(&format!("anat{i}"));
@@ -93,6 +97,19 @@ fn a_channel_beside_a_pocket_leaves_a_printable_wall_or_opens_into_it() {
             assert!(text.contains(&format!("sensor[0].channel_offset_mm = {offset}: the tail channel comes")) && text.contains("route it beside") && text.contains("open into the pocket's rim"), "{offset}: {text}");
         }
     }
+}
+
+/// A station that fails on its own is named by its place in the file, and the others are not
+/// blamed for it (the checks between stations wait until every station reads).
+#[test]
+fn a_bad_station_is_named_by_its_place_in_the_file() {
+    let d = dir("station-index");
+    let t = default_text().replacen("from_tip_mm = 19.0 ", "from_tip_mm = -1.0 ", 1);
+    std::fs::write(d.join("params/f.toml"), t).unwrap();
+    let (code, text) = run(&d);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("body.station[1].from_tip_mm = -1"), "{text}");
+    assert!(!text.contains("body.station[2]") && !text.contains("body.station[3]") && !text.contains("body.station[4]"), "{text}");
 }
 
 #[test]

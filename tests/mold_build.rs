@@ -337,6 +337,11 @@ fn several_cavities_cast_several_covers_in_one_pour() {
     assert!(b3.notes.iter().any(|n| n.contains("3 cavities cast 3 covers per pour") && n.contains("set mold.cavities = ")), "{:?}", b3.notes);
     assert!(b1.notes.iter().any(|n| n.contains("1 cavity casts 1 cover per pour")), "{:?}", b1.notes);
     assert_eq!(b3.manifest["mold-1s"]["cavities"], 3);
+    // a row longer than the print profile's bed is refused with the most that fit
+    let mut nine = one.clone();
+    nine.mold.cavities = 9;
+    let e = mold::build(&nine).err().expect("nine 1s cavities do not fit a 250 mm bed").to_string();
+    assert!(e.contains("mold.cavities = 9") && e.contains("more than the 250 × 210 mm bed") && e.contains("use at most 6"), "{e}");
     // the flat style has one tray
     let d = dir("flatcav");
     let text = std::fs::read_to_string("params/mold-flat.toml").unwrap();

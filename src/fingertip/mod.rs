@@ -4,7 +4,6 @@
 
 pub mod shape;
 pub mod section_plot;
-pub mod sections;
 
 use crate::error::{Error, Result};
 use crate::mesh::{self, add, frame, scale, segments, sub, Solid, P3};

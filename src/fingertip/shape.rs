@@ -1,6 +1,6 @@
 //! The analytic fingertip body: the exact surfaces that truck models and the validation reads.
 
-use super::sections::Monotone;
+use crate::interp::Monotone;
 use crate::error::Result;
 use crate::mesh::{self, Mesh, P3};
 use crate::params::fingertip::{Body, Form};
@@ -60,8 +60,7 @@ impl Shape {
                 let at: Vec<f64> = stations.iter().map(|s| l - s.from_tip_mm).collect();
                 let f = |g: &dyn Fn(&crate::params::fingertip::Station) -> f64| Monotone::new(&at, &stations.iter().map(g).collect::<Vec<_>>());
                 let prof = Profile::Stations { x_cap: l - tip_length_mm, cap: *tip_length_mm, wh: f(&|s| s.width_mm / 2.0), zp: f(&|s| s.pad_depth_mm), zd: f(&|s| s.nail_height_mm) };
-                let pad_depth = stations.iter().map(|s| s.pad_depth_mm).fold(0.0, f64::max);
-                let dorsal = stations.iter().map(|s| s.nail_height_mm).fold(0.0, f64::max);
+                let (_, pad_depth, dorsal) = crate::params::fingertip::envelope(stations, l, *tip_length_mm);
                 Shape { length: l, pad_depth, dorsal_height: dorsal, prof }
             }
         }
@@ -287,12 +286,12 @@ impl Shape {
                     let (a, p, d) = (wh.at(x), zp.at(x), zd.at(x));
                     m = m.min(ellipse(a, p)).min(ellipse(a, d));
                 }
-                // side profiles of width, pad and nail lines
+                // side profiles of width, pad and nail lines: a curve's radius (1 + s²)^1.5 / |s''|
+                // is at least 1 / |s''|
                 for f in [wh, zp, zd] {
                     let k = f.max_curvature();
                     if k > 0.0 {
-                        let s_max = (0..=n).map(|i| f.slope(x_cap * i as f64 / n as f64).abs()).fold(0.0, f64::max);
-                        m = m.min((1.0 + s_max * s_max).powf(1.5).min(1.0) / k);
+                        m = m.min(1.0 / k);
                     }
                 }
                 // the rounded end: a semi-ellipsoid of semi-axes cap, wh, zp or zd

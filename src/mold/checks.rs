@@ -293,8 +293,8 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     (out, measured)
 }
 
-/// Largest gap (along the face normal) between the cover's inner faces and the finished
-/// fingertip, leaving out the faces over the seat pockets, tail channels and dome cavities.
+/// Largest gap (along the exact body's normal at the face's centre) between the cover's inner
+/// faces and the finished fingertip, leaving out the faces over the seat pockets, tail channels and dome cavities.
 fn inner_gap(p: &MoldParams, l: &Layout, a: &Assembled) -> (f64, usize) {
     let Ok(tip) = fingertip::build(&p.fingertip) else {
         return (f64::INFINITY, 0);

@@ -262,16 +262,29 @@ impl Assembled {
 
 /// What one pour of this mold casts, against the smallest sound batch (`mold::batch`): the
 /// number of cavities that pours a whole batch at once.
-fn pour_note(name: &str, n: usize, mat: &serde_json::Value) -> String {
+fn pour_note(name: &str, n: usize, fits: usize, mat: &serde_json::Value) -> String {
     let g = |k: &str| mat[k].as_f64().unwrap_or(f64::NAN);
     let mixed = g("sylgard_base_g") + g("curing_agent_g");
     let batch = mat["batch"]["covers_per_batch"].as_f64().unwrap_or(1.0) as usize;
     let pour = format!("{name}: {n} cavit{} cast{} {n} cover{} per pour ({:.2} g mixed)", if n == 1 { "y" } else { "ies" }, if n == 1 { "s" } else { "" }, if n == 1 { "" } else { "s" }, n as f64 * mixed);
     if n >= batch {
         format!("{pour}: a sound batch in one pour")
-    } else {
+    } else if batch <= fits {
         format!("{pour}; a sound batch casts {batch}: set mold.cavities = {batch} to pour it at once ({:.2} g)", batch as f64 * mixed)
+    } else {
+        format!("{pour}; a sound batch casts {batch}, but at most {fits} cavities fit the bed: set mold.cavities = {fits} and pour the batch into {} molds", batch.div_ceil(fits.max(1)))
     }
+}
+
+/// How many cavities fit side by side on the print profile's bed (the row along its longer side,
+/// the mold's length across the shorter), and the row's length for n.
+fn cavities_fit(a: &Assembled, pitch: f64) -> (usize, impl Fn(usize) -> f64) {
+    let width = a.bounds.1[1] - a.bounds.0[1];
+    let length = a.bounds.1[0] - a.bounds.0[0];
+    let [long, short] = crate::slicer::PROFILE_BED_MM;
+    let need = move |n: usize| width + pitch * (n as f64 - 1.0);
+    let fits = if length > short { 0 } else { (1..=64).take_while(|&n| need(n) <= long).last().unwrap_or(0) };
+    (fits, need)
 }
 
 /// Adjacent cavities' flanges overlap by this (mm), so the pieces unite into one body each.
@@ -291,6 +304,20 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     // piece stays one body (the assembly view and the assembled-mold checks are one cavity's)
     let n = p.mold.cavities;
     let pitch = a.bounds.1[1] - a.bounds.0[1] - CAVITY_OVERLAP_MM;
+    // the row of cavities must fit the print profile's bed, along its longer side
+    let (fits, need) = cavities_fit(&a, pitch);
+    if n > fits {
+        return Err(Error::geometry(
+            name,
+            format!(
+                "mold.cavities = {n}: {n} cavities side by side take {:.0} × {:.0} mm, more than the {} × {} mm bed of the print profile: use at most {fits}",
+                need(n),
+                a.bounds.1[0] - a.bounds.0[0],
+                crate::slicer::PROFILE_BED_MM[0],
+                crate::slicer::PROFILE_BED_MM[1]
+            ),
+        ));
+    }
     let side_by_side = |one: &Solid| -> Solid {
         if n == 1 {
             return one.clone();
@@ -465,7 +492,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("chordal_tolerance_mm".into(), json!(p.mold.chordal_tolerance_mm));
     manifest.insert(name.to_string(), serde_json::Value::Object(entry));
     let mut notes = notes(name, &mat);
-    notes.push(pour_note(name, n, &mat));
+    notes.push(pour_note(name, n, fits, &mat));
     for (i, c) in over_domes.as_array().into_iter().flatten().enumerate() {
         let f = |k: &str| c[k].as_f64().unwrap_or(f64::NAN);
         notes.push(format!(

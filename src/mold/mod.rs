@@ -359,7 +359,8 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
     // a facet of the tessellation leans up to acos(1 − tol/R) from the exact surface's normal
     let facet = (1.0 - m.chordal_tolerance_mm / s.min_curvature_radius()).acos().to_degrees();
     match edge_tilt_deg(s, &l.frame, l.z_parting, l.x_start, t) {
-        Some(tilt) if tilt + 1e-9 < m.draft_deg + facet => push(
+        // (a NaN facet, from a curvature radius under half the tolerance, is refused too)
+        Some(tilt) if tilt.is_nan() || facet.is_nan() || tilt + 1e-9 < m.draft_deg + facet => push(
             "mold.parting_below_midplane_mm",
             m.parting_below_midplane_mm.to_string(),
             format!(

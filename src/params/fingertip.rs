@@ -182,6 +182,13 @@ pub struct FingertipParams {
     pub print: Print,
 }
 
+/// The shortest rounded end (mm) the anatomical form takes (the capsule's tip radius: half of it).
+pub const MIN_ROUNDING_MM: f64 = 2.0;
+
+/// How far beyond the mount face a station may lie (mm): a shortened finger keeps its file's
+/// stations, and a station there still shapes the body at the mount.
+pub const MAX_BEYOND_MOUNT_MM: f64 = 10.0;
+
 /// Allowed chordal tolerance range (mm).
 pub const TOLERANCE_RANGE_MM: (f64, f64) = (0.001, 0.05);
 
@@ -328,7 +335,7 @@ fn capsule_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
     let thickness = c.positive(b.thickness_mm, "body.thickness_mm", "14.0");
     let r_long = c.positive(b.pad_longitudinal_radius_mm, "body.pad_longitudinal_radius_mm", "40.0");
     let r_trans = c.positive(b.pad_transverse_radius_mm, "body.pad_transverse_radius_mm", "12.0");
-    let r_tip = c.positive(b.tip_radius_mm, "body.tip_radius_mm", "4.5");
+    let r_tip = c.at_least_mm(b.tip_radius_mm, "body.tip_radius_mm", MIN_ROUNDING_MM / 2.0, "too sharp a tip to round and to cast over", "4.5");
     let (Some(l), Some(w), Some(t), Some(rl), Some(rt), Some(rtip)) = (length, width, thickness, r_long, r_trans, r_tip) else { return None };
     let before = c.problems.len();
     let pad_depth = (w / 2.0).powi(2) / rt;
@@ -388,12 +395,15 @@ fn stations_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
         }
     }
     let length = c.positive(b.length_mm, "body.length_mm", "28.0");
-    let tip = c.positive(b.tip_length_mm, "body.tip_length_mm", "7.0");
+    // a rounded end shorter than this is a corner: its curvature radius (length² / half-width)
+    // would drive the tessellation of offsets and molds into millions of triangles
+    let tip = c.at_least_mm(b.tip_length_mm, "body.tip_length_mm", MIN_ROUNDING_MM, "too sharp a tip to round and to cast over", "7.0");
     let raw = b.station.clone().unwrap_or_default();
     if !(2..=8).contains(&raw.len()) {
         c.push("body.station", format!("{} station(s)", raw.len()), "the anatomical body needs 2 to 8 `[[body.station]]` sections (3–5 describe a finger: at the mount, the pulp and before the tip)");
     }
     let mut stations = Vec::new();
+    let mut index = Vec::new();
     for (i, r) in raw.iter().enumerate() {
         let k = |f: &str| format!("body.station[{i}].{f}");
         let at = c.positive(r.from_tip_mm, &k("from_tip_mm"), "10.0");
@@ -402,36 +412,57 @@ fn stations_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
         let nh = c.positive(r.nail_height_mm, &k("nail_height_mm"), "7.0");
         if let (Some(at), Some(w), Some(pd), Some(nh)) = (at, w, pd, nh) {
             stations.push(Station { from_tip_mm: at, width_mm: w, pad_depth_mm: pd, nail_height_mm: nh });
+            index.push(i);
         }
     }
     let (Some(l), Some(tip)) = (length, tip) else { return None };
     if tip >= l * 0.6 {
         c.push("body.tip_length_mm", tip, format!("the rounded end must take less than 60 % of the body ({l} mm): use at most {:.1}", 0.6 * l));
     }
-    for (i, s) in stations.iter().enumerate() {
+    // each station named by its place in the file (a station that failed above is not here)
+    let whole = stations.len() == raw.len();
+    for (n, s) in stations.iter().enumerate() {
+        let i = index[n];
         let k = |f: &str| format!("body.station[{i}].{f}");
+        if s.from_tip_mm > l + MAX_BEYOND_MOUNT_MM {
+            c.push(&k("from_tip_mm"), s.from_tip_mm, format!("more than {MAX_BEYOND_MOUNT_MM} mm beyond the mount face (body length {l} mm): a station there does not shape the body; use at most {}", l + MAX_BEYOND_MOUNT_MM));
+        }
         if s.from_tip_mm < tip - 1e-9 {
             c.push(&k("from_tip_mm"), s.from_tip_mm, format!("stations lie before the rounded end: at least tip_length_mm ({tip} mm) from the tip"));
         }
-        if i > 0 && s.from_tip_mm >= stations[i - 1].from_tip_mm {
-            c.push(&k("from_tip_mm"), s.from_tip_mm, format!("list the stations from the mount face toward the tip: must be less than the previous station's {} mm", stations[i - 1].from_tip_mm));
+        if whole && n > 0 && s.from_tip_mm >= stations[n - 1].from_tip_mm {
+            c.push(&k("from_tip_mm"), s.from_tip_mm, format!("list the stations from the mount face toward the tip: must be less than the previous station's {} mm", stations[n - 1].from_tip_mm));
         }
         if s.width_mm / 2.0 < s.pad_depth_mm.max(s.nail_height_mm) / 4.0 || s.width_mm / 2.0 > 4.0 * s.pad_depth_mm.min(s.nail_height_mm) {
             c.push(&k("width_mm"), s.width_mm, "a section's half-width must lie within 1/4 and 4 times its pad depth and nail height: the section would be a blade");
         }
     }
-    if stations.first().is_some_and(|s| s.from_tip_mm < 0.5 * l) {
+    if whole && stations.first().is_some_and(|s| s.from_tip_mm < 0.5 * l) {
         c.push("body.station[0].from_tip_mm", stations[0].from_tip_mm, format!("the first station should describe the mount end: at least half the body's length ({:.1} mm) from the tip", 0.5 * l));
     }
     if c.problems.len() != before || stations.len() != raw.len() || !(2..=8).contains(&stations.len()) {
         return None;
     }
-    // the body's envelope: the widest station, the highest nail side over the deepest pad (the
-    // interpolation never overshoots the stations; a station beyond the mount face, on a shortened
-    // finger, still shapes the body there, so this is an upper bound)
-    let width = stations.iter().map(|s| s.width_mm).fold(0.0, f64::max);
-    let thickness = stations.iter().map(|s| s.nail_height_mm).fold(0.0, f64::max) + stations.iter().map(|s| s.pad_depth_mm).fold(0.0, f64::max);
+    // the body's envelope over its length (a station beyond the mount face, on a shortened finger,
+    // shapes the body there but is not itself part of it): the widest section, the highest nail
+    // side over the deepest pad
+    let (width, pad, nail) = envelope(&stations, l, tip);
+    let thickness = pad + nail;
     Some(Body { length_mm: l, width_mm: width, thickness_mm: thickness, form: Form::Stations { tip_length_mm: tip, stations } })
+}
+
+/// The widest section, the deepest pad and the highest nail side of the stations' interpolation
+/// over the body (mount face to the start of the rounded end; the end only narrows).
+pub fn envelope(stations: &[Station], length_mm: f64, tip_length_mm: f64) -> (f64, f64, f64) {
+    let at: Vec<f64> = stations.iter().map(|s| length_mm - s.from_tip_mm).collect();
+    let curve = |f: fn(&Station) -> f64| crate::interp::Monotone::new(&at, &stations.iter().map(f).collect::<Vec<_>>());
+    let (w, p, n) = (curve(|s| s.width_mm), curve(|s| s.pad_depth_mm), curve(|s| s.nail_height_mm));
+    let x_cap = length_mm - tip_length_mm;
+    // the values at the stations inside the body and at the ends (monotone pieces: the extremes
+    // of each lie at its ends)
+    let xs: Vec<f64> = at.iter().copied().filter(|x| (0.0..=x_cap).contains(x)).chain([0.0, x_cap]).collect();
+    let max = |c: &crate::interp::Monotone| xs.iter().map(|&x| c.at(x)).fold(0.0, f64::max);
+    (max(&w), max(&p), max(&n))
 }
 
 type Recess = (Option<f64>, Option<Head>, Option<f64>, Option<f64>);

@@ -1,4 +1,5 @@
-//! Station interpolation for the anatomical body: a monotone piecewise-cubic Hermite curve
+//! Monotone interpolation through stations (used by the anatomical fingertip's body and its
+//! parameters' envelope): a monotone piecewise-cubic Hermite curve
 //! (Fritsch–Butland slopes) through the station values. It is C¹, never overshoots the stations
 //! (a pulp given as the deepest station stays the deepest point, with a level tangent there), and
 //! holds the end values with zero slope before the first and after the last station.
@@ -116,6 +117,15 @@ mod tests {
             let h = 1e-6;
             let fd = (s.at(t + h) - s.at(t - h)) / (2.0 * h);
             assert!((fd - s.slope(t)).abs() < 1e-5, "at {t}: {fd} vs {}", s.slope(t));
+        }
+        // the second derivative is linear on a piece, so its largest size is at an end: compare
+        // with finite differences just inside each piece's ends
+        for i in 0..3 {
+            let (a, b) = ([0.0, 5.0, 9.0, 20.0][i], [0.0, 5.0, 9.0, 20.0][i + 1]);
+            let h = 1e-4;
+            let second = |t: f64| (s.slope(t + h) - s.slope(t - h)) / (2.0 * h);
+            let fd = second(a + 2.0 * h).abs().max(second(b - 2.0 * h).abs());
+            assert!((fd - s.piece_curvature(i)).abs() < 1e-3 * (1.0 + fd), "piece {i}: {fd} vs {}", s.piece_curvature(i));
         }
         assert!(s.max_curvature() > 0.0);
         // beyond the ends: held, level
