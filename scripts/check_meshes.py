@@ -367,6 +367,8 @@ def seats(c):
         found = loop_around(cs, (0.0, 0.0))
         if found is not None:
             p = found[1]
+        elif not s.get("opened_by_channels"):
+            return "seat pocket must be present", f"seat {i}: no contour at mid-depth"
         else:
             # another sensor's tail channel opens into this pocket's rim, so the pocket's contour
             # runs on along that channel and no loop closes round the centre: in each of 72

@@ -104,6 +104,16 @@ fn along(path: &[[f64; 2]], step: f64) -> Vec<([f64; 2], [f64; 2])> {
     out
 }
 
+/// The other sensors whose tail channel opens into sensor `j`'s pocket (the crossing rule lets a
+/// channel cut into a pocket's rim); the mesh checks measure such a pocket without a closed loop.
+fn channels_opening_into(shape: &Shape, p: &FingertipParams, j: usize) -> Vec<usize> {
+    let sj = &p.sensors[j];
+    let centre = [shape.length - sj.position_from_tip_mm, sj.lateral_offset_mm];
+    (0..p.sensors.len())
+        .filter(|&i| i != j && path_distance(&channel_path(shape, &p.sensors[i]), centre) < sj.seat_diameter_mm / 2.0 + p.sensors[i].channel_width_mm / 2.0)
+        .collect()
+}
+
 /// Distance from a point to a polyline.
 fn path_distance(path: &[[f64; 2]], p: [f64; 2]) -> f64 {
     path.windows(2)
@@ -567,6 +577,7 @@ pub fn build(p: &FingertipParams) -> Result<Part> {
             "dome_diameter_mm": s.dome_diameter_mm,
             "dome_height_mm": s.dome_height_mm,
             "channel_dir": channel_dir,
+            "opened_by_channels": channels_opening_into(&shape, p, i),
         }));
     }
     let m = &p.mount;
