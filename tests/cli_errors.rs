@@ -20,6 +20,16 @@ fn run(d: &Path) -> (i32, String) {
     (o.status.code().unwrap_or(-1), text)
 }
 
+/// Writes `text` as the one part file in `d` and builds: exit code 2, `needle` in the message,
+/// nothing written.
+fn refused_with(d: &Path, text: &str, needle: &str, case: usize) {
+    std::fs::write(d.join("params/f.toml"), text).unwrap();
+    let (code, out) = run(d);
+    assert_eq!(code, 2, "case {case}: {out}");
+    assert!(out.contains(needle), "case {case}: expected {needle:?} in\n{out}");
+    assert!(!d.join("out").exists());
+}
+
 fn default_text() -> String {
     std::fs::read_to_string("params/fingertip-1s.toml").unwrap()
 }
@@ -69,11 +79,7 @@ fn anatomical_body_problems_name_the_station() {
         let d = dir(&format!("anat{i}"));
         let t = default_text();
         assert!(t.contains(from), "fixture lacks {from}");
-        std::fs::write(d.join("params/f.toml"), t.replacen(from, to, 1)).unwrap();
-        let (code, text) = run(&d);
-        assert_eq!(code, 2, "case {i}: {text}");
-        assert!(text.contains(needle), "case {i}: expected {needle:?} in\n{text}");
-        assert!(!d.join("out").exists());
+        refused_with(&d, &t.replacen(from, to, 1), needle, i);
     }
 }
 
@@ -149,11 +155,7 @@ fn geometric_rules_name_the_offending_key() {
             assert!(t.contains(from), "fixture lacks {from}");
             t = t.replacen(from, to, 1);
         }
-        std::fs::write(d.join("params/f.toml"), t).unwrap();
-        let (code, text) = run(&d);
-        assert_eq!(code, 2, "case {i}: {text}");
-        assert!(text.contains(needle), "case {i}: expected {needle:?} in\n{text}");
-        assert!(!d.join("out").exists());
+        refused_with(&d, &t, needle, i);
     }
 }
 

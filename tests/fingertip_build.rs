@@ -75,15 +75,11 @@ fn seats_are_flat_planes_at_the_stated_depth() {
                 }
                 // another sensor's tail channel may open into this seat's rim
                 let design = [v[2], v[0], v[1]];
-                let in_other_channel = p.sensors.iter().filter(|o| !std::ptr::eq(*o, s)).any(|o| {
-                    let cp = tipforge::fingertip::channel_path(&shape, o);
-                    cp.windows(2).any(|w| {
-                        let (a, b) = (w[0], w[1]);
-                        let dd = [b[0] - a[0], b[1] - a[1]];
-                        let t = (((design[0] - a[0]) * dd[0] + (design[1] - a[1]) * dd[1]) / (dd[0] * dd[0] + dd[1] * dd[1])).clamp(0.0, 1.0);
-                        ((design[0] - a[0] - t * dd[0]).powi(2) + (design[1] - a[1] - t * dd[1]).powi(2)).sqrt() < o.channel_width_mm / 2.0 + 0.6
-                    })
-                });
+                let in_other_channel = p
+                    .sensors
+                    .iter()
+                    .filter(|o| !std::ptr::eq(*o, s))
+                    .any(|o| tipforge::fingertip::path_distance(&tipforge::fingertip::channel_path(&shape, o), [design[0], design[1]]) < o.channel_width_mm / 2.0 + 0.6);
                 if in_other_channel {
                     continue;
                 }

@@ -5,7 +5,7 @@ mod common;
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::Ordering;
 use tipforge::error::Error;
 use tipforge::params::SourceFile;
 
@@ -95,43 +95,33 @@ fn toml_of(g: &Gen) -> String {
 
 #[test]
 fn random_parameter_sets_build_valid_meshes_or_clear_errors() {
-    let valid = AtomicUsize::new(0);
-    let invalid = AtomicUsize::new(0);
-    let narrow = AtomicUsize::new(0);
+    let tally = common::Tally::default();
     let cases: u32 = std::env::var("TIPFORGE_PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(800);
     // a fixed seed: the same parameter sets on every machine, so the count of valid sets is stable
     let mut runner = TestRunner::new_with_rng(Config { cases, failure_persistence: None, ..Config::default() }, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
-    runner
-        .run(&gen(), |g| {
-            let text = toml_of(&g);
-            let src = SourceFile::parse("random.toml", text.clone()).expect("generated TOML parses");
-            match tipforge::fingertip::load(&src, "random", std::path::Path::new("params")) {
-                Ok(p) => {
-                    let part = tipforge::fingertip::build(&p).map_err(|e| TestCaseError::fail(format!("valid params failed to build: {e}\n{text}")))?;
-                    let v = tipforge::checks::run(&part);
-                    prop_assert_eq!(part.solid.genus(), 2 * p.mount.holes.len() as i32);
-                    prop_assert!(part.volume_mm3() > 0.0);
-                    if common::only_sub_nozzle(&v) {
-                        narrow.fetch_add(1, Ordering::Relaxed);
-                    } else {
-                        prop_assert!(v.is_empty(), "checks failed: {:?}\n{}", v, text);
-                        valid.fetch_add(1, Ordering::Relaxed);
-                    }
-                }
-                Err(Error::Input(problems)) => {
-                    common::rejected_clearly(&problems)?;
-                    invalid.fetch_add(1, Ordering::Relaxed);
-                }
-                Err(e) => return Err(TestCaseError::fail(format!("unexpected error kind: {e}"))),
-            }
-            Ok(())
-        })
-        .unwrap();
-    println!("random fingertips refused by the minimum-feature check: {}", narrow.load(Ordering::Relaxed));
-    // a part refused by the minimum-feature check was built and passed every other check; and
-    // enough are wholly clean that the check is not refusing everything
-    assert!(valid.load(Ordering::Relaxed) >= 100 || cases < 800, "only {} wholly clean random fingertips", valid.load(Ordering::Relaxed));
-    common::enough_of_both("fingertips", valid.load(Ordering::Relaxed) + narrow.load(Ordering::Relaxed), invalid.load(Ordering::Relaxed), cases, 800, 200, 10);
+    runner.run(&gen(), |g| check_case(&toml_of(&g), &tally)).unwrap();
+    tally.assert_enough("fingertips", cases, 800, 200, 100, 10);
+}
+
+/// One generated fingertip file: valid ones build one closed body of the expected genus and pass
+/// every check (or only the minimum-feature check refuses them); invalid ones name a path.
+fn check_case(text: &str, tally: &common::Tally) -> Result<(), TestCaseError> {
+    let src = SourceFile::parse("random.toml", text.to_string()).expect("generated TOML parses");
+    match tipforge::fingertip::load(&src, "random", std::path::Path::new("params")) {
+        Ok(p) => {
+            let part = tipforge::fingertip::build(&p).map_err(|e| TestCaseError::fail(format!("valid params failed to build: {e}\n{text}")))?;
+            let v = tipforge::checks::run(&part);
+            prop_assert_eq!(part.solid.genus(), 2 * p.mount.holes.len() as i32);
+            prop_assert!(part.volume_mm3() > 0.0);
+            tally.built(&v, text)?;
+        }
+        Err(Error::Input(problems)) => {
+            common::rejected_clearly(&problems)?;
+            tally.invalid.fetch_add(1, Ordering::Relaxed);
+        }
+        Err(e) => return Err(TestCaseError::fail(format!("unexpected error kind: {e}"))),
+    }
+    Ok(())
 }
 
 #[test]
@@ -160,9 +150,7 @@ fn corrupted_files_never_panic() {
 /// passes every check; the rest are input errors naming a path.
 #[test]
 fn random_anatomical_sets_build_valid_meshes_or_clear_errors() {
-    let valid = AtomicUsize::new(0);
-    let invalid = AtomicUsize::new(0);
-    let narrow = AtomicUsize::new(0);
+    let tally = common::Tally::default();
     let cases: u32 = std::env::var("TIPFORGE_PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(300);
     // one finger's proportions per case, each station within −15 % … +10 % of them
     let stations = (3usize..6, 4.0..9.0f64, 0.0..3.0f64, (14.0..18.5f64, 4.5..7.0f64, 6.0..9.0f64), proptest::collection::vec((0.85..1.1f64, 0.85..1.1f64, 0.85..1.1f64), 5));
@@ -179,33 +167,8 @@ fn random_anatomical_sets_build_valid_meshes_or_clear_errors() {
                 let from_tip = g.length + beyond - (g.length + beyond - tip) * k as f64 / (n - 1) as f64;
                 body += &format!("[[body.station]]\nfrom_tip_mm = {from_tip}\nwidth_mm = {w}\npad_depth_mm = {p}\nnail_height_mm = {h}\n");
             }
-            let text = format!("{}{}{}", &capsule[..a], body, &capsule[b..]);
-            let src = SourceFile::parse("random.toml", text.clone()).expect("generated TOML parses");
-            match tipforge::fingertip::load(&src, "random", std::path::Path::new("params")) {
-                Ok(p) => {
-                    let part = tipforge::fingertip::build(&p).map_err(|e| TestCaseError::fail(format!("valid params failed to build: {e}\n{text}")))?;
-                    let v = tipforge::checks::run(&part);
-                    prop_assert_eq!(part.solid.genus(), 2 * p.mount.holes.len() as i32);
-                    prop_assert!(part.volume_mm3() > 0.0);
-                    if common::only_sub_nozzle(&v) {
-                        narrow.fetch_add(1, Ordering::Relaxed);
-                    } else {
-                        prop_assert!(v.is_empty(), "checks failed: {:?}\n{}", v, text);
-                        valid.fetch_add(1, Ordering::Relaxed);
-                    }
-                }
-                Err(Error::Input(problems)) => {
-                    common::rejected_clearly(&problems)?;
-                    invalid.fetch_add(1, Ordering::Relaxed);
-                }
-                Err(e) => return Err(TestCaseError::fail(format!("unexpected error kind: {e}"))),
-            }
-            Ok(())
+            check_case(&format!("{}{}{}", &capsule[..a], body, &capsule[b..]), &tally)
         })
         .unwrap();
-    println!("random anatomical fingertips refused by the minimum-feature check: {}", narrow.load(Ordering::Relaxed));
-    // a part refused by the minimum-feature check was built and passed every other check; and
-    // enough are wholly clean that the check is not refusing everything
-    assert!(valid.load(Ordering::Relaxed) >= 25 || cases < 300, "only {} wholly clean random anatomical fingertips", valid.load(Ordering::Relaxed));
-    common::enough_of_both("anatomical fingertips", valid.load(Ordering::Relaxed) + narrow.load(Ordering::Relaxed), invalid.load(Ordering::Relaxed), cases, 300, 40, 10);
+    tally.assert_enough("anatomical fingertips", cases, 300, 40, 25, 10);
 }

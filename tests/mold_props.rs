@@ -7,7 +7,7 @@ mod common;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use std::path::Path;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::Ordering;
 use tipforge::error::Error;
 use tipforge::params::SourceFile;
 
@@ -81,7 +81,7 @@ fn toml_of(g: &Gen) -> String {
 #[test]
 fn random_molds_build_and_pass_every_check_or_are_rejected_clearly() {
     let cases: u32 = std::env::var("TIPFORGE_MOLD_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(80);
-    let (valid, invalid, narrow) = (AtomicUsize::new(0), AtomicUsize::new(0), AtomicUsize::new(0));
+    let tally = common::Tally::default();
     let mut runner = TestRunner::new_with_rng(Config { cases, failure_persistence: None, ..Config::default() }, TestRng::deterministic_rng(RngAlgorithm::ChaCha));
     runner
         .run(&gen(), |g| {
@@ -91,30 +91,18 @@ fn random_molds_build_and_pass_every_check_or_are_rejected_clearly() {
                 Ok(p) => {
                     let b = tipforge::mold::build(&p).map_err(|e| TestCaseError::fail(format!("valid mold failed to build: {e}\n{text}")))?;
                     prop_assert!(b.violations.is_empty(), "assembled-mold checks failed: {:?}\n{}", b.violations, text);
-                    let mut refused = false;
-                    for part in &b.parts {
-                        let v = tipforge::checks::run(part);
-                        refused |= common::only_sub_nozzle(&v);
-                        prop_assert!(v.is_empty() || common::only_sub_nozzle(&v), "{}: {:?}\n{}", part.name, v, text);
-                    }
-                    if refused {
-                        narrow.fetch_add(1, Ordering::Relaxed);
-                    } else {
-                        valid.fetch_add(1, Ordering::Relaxed);
-                    }
+                    // the mold's pieces together: refused if any is refused only by the narrow-wall check
+                    let v: Vec<_> = b.parts.iter().flat_map(tipforge::checks::run).collect();
+                    tally.built(&v, &text)?;
                 }
                 Err(Error::Input(problems)) => {
                     common::rejected_clearly(&problems)?;
-                    invalid.fetch_add(1, Ordering::Relaxed);
+                    tally.invalid.fetch_add(1, Ordering::Relaxed);
                 }
                 Err(e) => return Err(TestCaseError::fail(format!("unexpected error kind: {e}\n{text}"))),
             }
             Ok(())
         })
         .unwrap();
-    println!("random molds refused by the minimum-feature check: {}", narrow.load(Ordering::Relaxed));
-    // a part refused by the minimum-feature check was built and passed every other check; and
-    // enough are wholly clean that the check is not refusing everything
-    assert!(valid.load(Ordering::Relaxed) >= 10 || cases < 80, "only {} wholly clean random molds", valid.load(Ordering::Relaxed));
-    common::enough_of_both("molds", valid.load(Ordering::Relaxed) + narrow.load(Ordering::Relaxed), invalid.load(Ordering::Relaxed), cases, 80, 20, 5);
+    tally.assert_enough("molds", cases, 80, 20, 10, 5);
 }

@@ -108,14 +108,16 @@ fn along(path: &[[f64; 2]], step: f64) -> Vec<([f64; 2], [f64; 2])> {
 /// channel cut into a pocket's rim); the mesh checks measure such a pocket without a closed loop.
 fn channels_opening_into(shape: &Shape, p: &FingertipParams, j: usize) -> Vec<usize> {
     let sj = &p.sensors[j];
-    let centre = [shape.length - sj.position_from_tip_mm, sj.lateral_offset_mm];
-    (0..p.sensors.len())
-        .filter(|&i| i != j && path_distance(&channel_path(shape, &p.sensors[i]), centre) < sj.seat_diameter_mm / 2.0 + p.sensors[i].channel_width_mm / 2.0)
-        .collect()
+    (0..p.sensors.len()).filter(|&i| i != j && channel_to_seat(shape, &p.sensors[i], sj) < sj.seat_diameter_mm / 2.0 + p.sensors[i].channel_width_mm / 2.0).collect()
+}
+
+/// Plan-view distance from sensor `si`'s tail channel's centre line to sensor `sj`'s seat centre.
+fn channel_to_seat(shape: &Shape, si: &Sensor, sj: &Sensor) -> f64 {
+    path_distance(&channel_path(shape, si), [shape.length - sj.position_from_tip_mm, sj.lateral_offset_mm])
 }
 
 /// Distance from a point to a polyline.
-fn path_distance(path: &[[f64; 2]], p: [f64; 2]) -> f64 {
+pub fn path_distance(path: &[[f64; 2]], p: [f64; 2]) -> f64 {
     path.windows(2)
         .map(|w| {
             let (a, b) = (w[0], w[1]);
@@ -157,14 +159,9 @@ fn socket_box(p: &FingertipParams) -> (P3, P3) {
     )
 }
 
-/// Half-width of the body at (x, z): where the flank is.
-pub fn flank_y(shape: &Shape, x: f64, z: f64) -> Option<f64> {
-    shape.flank_y(x, z)
-}
-
 /// |y| of the head recess floor of a cross hole at (x, z).
 fn head_floor(shape: &Shape, p: &FingertipParams, x: f64, z: f64) -> Option<f64> {
-    let side = flank_y(shape, x, z)?;
+    let side = shape.flank_y(x, z)?;
     let m = &p.mount;
     Some(match m.head {
         Head::None => side,
@@ -180,8 +177,8 @@ fn rim_slope_deg(shape: &Shape, x: f64, z: f64, rh: f64) -> Option<f64> {
         let a = 2.0 * std::f64::consts::PI * k as f64 / 16.0;
         let (px, pz) = (x + rh * a.cos(), z + rh * a.sin());
         let e = 0.01;
-        let dz = (flank_y(shape, px, pz + e)? - flank_y(shape, px, pz - e)?) / (2.0 * e);
-        let dx = (flank_y(shape, px + e, pz)? - flank_y(shape, (px - e).max(0.0), pz)?) / (2.0 * e);
+        let dz = (shape.flank_y(px, pz + e)? - shape.flank_y(px, pz - e)?) / (2.0 * e);
+        let dx = (shape.flank_y(px + e, pz)? - shape.flank_y((px - e).max(0.0), pz)?) / (2.0 * e);
         worst = worst.max((dz * dz + dx * dx).sqrt().atan().to_degrees());
     }
     Some(worst)
@@ -328,9 +325,8 @@ pub fn validate(p: &FingertipParams) -> Vec<(String, String, String)> {
             // channel of i vs pocket of j, plan view: either a printable wall between them, or the
             // channel opens into the pocket's rim wide enough to leave no sliver, without running
             // under the sensing area (the dome's footprint)
-            let (cx, cy, r) = (shape.length - sj.position_from_tip_mm, sj.lateral_offset_mm, sj.seat_diameter_mm / 2.0);
-            let half = si.channel_width_mm / 2.0;
-            let d = path_distance(&channel_path(&shape, si), [cx, cy]);
+            let (cy, r, half) = (sj.lateral_offset_mm, sj.seat_diameter_mm / 2.0, si.channel_width_mm / 2.0);
+            let d = channel_to_seat(&shape, si, sj);
             let clear = r + half + crate::checks::min_feature::MIN_FEATURE_MM;
             let (open_lo, open_hi) = (sj.dome_diameter_mm / 2.0 + half, r + half - OPEN_INTO_POCKET_MM);
             if d < clear && !(d >= open_lo && d <= open_hi) {

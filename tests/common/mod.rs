@@ -27,3 +27,36 @@ pub fn enough_of_both(what: &str, valid: usize, invalid: usize, cases: u32, full
 pub fn only_sub_nozzle(v: &[tipforge::checks::Violation]) -> bool {
     !v.is_empty() && v.iter().all(|x| x.rule == tipforge::checks::min_feature::RULE)
 }
+
+/// Counts of a property test's cases: built and wholly clean, refused by the minimum-feature check
+/// only (built, every other check passed), rejected with input errors.
+#[derive(Default)]
+pub struct Tally {
+    pub valid: std::sync::atomic::AtomicUsize,
+    pub narrow: std::sync::atomic::AtomicUsize,
+    pub invalid: std::sync::atomic::AtomicUsize,
+}
+
+impl Tally {
+    /// A built part's check results: counted clean or refused-narrow; any other violation fails.
+    pub fn built(&self, v: &[tipforge::checks::Violation], what: &str) -> Result<(), TestCaseError> {
+        use std::sync::atomic::Ordering::Relaxed;
+        if only_sub_nozzle(v) {
+            self.narrow.fetch_add(1, Relaxed);
+        } else {
+            prop_assert!(v.is_empty(), "checks failed: {:?}\n{}", v, what);
+            self.valid.fetch_add(1, Relaxed);
+        }
+        Ok(())
+    }
+
+    /// At full size: enough built (clean or refused-narrow: both passed every other check), enough
+    /// wholly clean (the minimum-feature check is not refusing everything), and enough invalid.
+    pub fn assert_enough(&self, what: &str, cases: u32, full: u32, min_built: usize, min_clean: usize, min_invalid: usize) {
+        use std::sync::atomic::Ordering::Relaxed;
+        let (valid, narrow, invalid) = (self.valid.load(Relaxed), self.narrow.load(Relaxed), self.invalid.load(Relaxed));
+        println!("random {what} refused by the minimum-feature check: {narrow}");
+        assert!(valid >= min_clean || cases < full, "only {valid} wholly clean random {what}");
+        enough_of_both(what, valid + narrow, invalid, cases, full, min_built, min_invalid);
+    }
+}
