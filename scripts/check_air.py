@@ -309,6 +309,9 @@ def trapped_by_levels(air, atmosphere):
     return out
 
 
+SEAL_MM = 0.005
+
+
 def tolerance(h, dz):
     return max(TOLERANCE_MM3, 2 * h * h * dz)
 
@@ -325,7 +328,14 @@ def load_pieces(mold, root):
     """Core ∪ shell in the assembled frame, from the written STL files."""
     fr = mold["frames"]
     load = lambda part, rows: to_manifold(trimesh.load(str(root / f"{part}.stl"), process=True)).transform(np.asarray(rows, float))
-    return load(mold["pieces"][0], fr["core_print_to_assembled"]) + load(mold["pieces"][1], fr["shell_print_to_assembled"])
+    core, shell = load(mold["pieces"][0], fr["core_print_to_assembled"]), load(mold["pieces"][1], fr["shell_print_to_assembled"])
+    # where the pieces touch (the parting plane), float32 STL vertices leave films a fraction of a
+    # micrometre thick that can join the key holes to the cavity: seal every place where they lie
+    # within SEAL_MM of each other along the opening direction (the smallest designed gap is 0.2 mm)
+    up, _ = pour_up(mold)
+    shift = lambda m, d: m.translate(list(up * d))
+    seal = (shift(core, -SEAL_MM) ^ shift(shell, SEAL_MM)) + (shift(core, SEAL_MM) ^ shift(shell, -SEAL_MM))
+    return core + shell + seal
 
 
 def drill(pieces, mold, points, r=0.4):

@@ -165,6 +165,7 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
         ("fingertip = \"fingertip-1s.toml\"", "fingertip = \"nope.toml\"", "cannot read"),
         ("[mold]", "[mold]\nkey_diameter = 4.0", "did you mean `key_diameter_mm`"),
         ("cavities = 1 ", "cavities = 0 ", "mold.cavities = 0: must be a whole number from 1 to 12"),
+        ("[cover]", "[cover]\nprofile = \"even\"", "cover.profile = even: use \"uniform\""),
     ];
     for (from, to, needle) in cases {
         assert!(base.contains(from), "{from}");
@@ -186,9 +187,15 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
     let board = std::fs::read_to_string("params/fsr-8mm.toml").unwrap();
     assert!(board.contains("dome_height_mm = 1.0"));
     std::fs::write(d.join("params/fsr-8mm.toml"), board.replacen("dome_height_mm = 1.0", "dome_height_mm = 2.6", 1)).unwrap();
-    let (code, text) = run(&d, &base);
+    let follow = base.replacen("[cover]", "[cover]\nprofile = \"follow_pad\"", 1);
+    let (code, text) = run(&d, &follow);
     assert_eq!(code, 2, "{text}");
     assert!(text.contains("breaks through") && text.contains("cover.thickness_mm"), "{text}");
+    // a uniform cover keeps its nominal over any dome: its window stands higher instead
+    let (code, text) = run(&d, &base);
+    assert_eq!(code, 0, "{text}");
+    assert!(text.contains("1.50-1.50 mm over it"), "{text}");
+    let _ = std::fs::remove_dir_all(d.join("out"));
     std::fs::write(d.join("params/fsr-8mm.toml"), board).unwrap();
     // a tilted opening with a deeper parting plane builds and passes every check
     let tilted = base
@@ -236,21 +243,41 @@ fn every_tilted_flat_gets_a_vent_from_its_top() {
     }
 }
 
-/// The cover's thickness over each sensing area is measured and stated: over the dome's centre it is
-/// the nominal plus the flat's recess less the dome's height (the outer surface follows the pad).
+/// Cover thickness over the sensing area (issue 18, item 3). The default profile, "uniform", holds
+/// the nominal ±10 % at every one of the 25 points over every dome of both molds; "follow_pad" (the
+/// earlier profile: the pad's offset) is measured as the nominal plus the flat's recess less the
+/// dome's height at the centre, and misses ±10 % on both molds, so the rule can tell them apart.
+/// The uniform rule is a check that refuses the build: a tolerance of 0 % would fail it.
 #[test]
 fn the_cover_over_the_sensing_area_is_measured_and_stated() {
-    let p = load("mold-1s");
-    let (l, a) = conforming::assemble(&p).unwrap();
-    let over = checks::cover_over_domes(&l, &a);
-    assert_eq!(over.len(), 1);
-    let centre = over[0]["centre_mm"].as_f64().unwrap();
-    // the flat's recess at the seat's centre: from the fingertip's own seat placement
-    let seat = tipforge::fingertip::seat(&tipforge::fingertip::Shape::new(&p.fingertip.body), &p.fingertip.sensors[0]).unwrap();
-    let expected = p.cover.thickness_mm + seat.flat_depth - p.fingertip.sensors[0].dome_height_mm;
-    assert!((centre - expected).abs() < 0.02, "centre {centre} vs {expected}");
-    let (lo, hi) = (over[0]["min_mm"].as_f64().unwrap(), over[0]["max_mm"].as_f64().unwrap());
-    assert!(lo < centre && hi >= centre - 1e-9 && lo > 0.5, "{lo} {hi}");
+    use tipforge::params::mold::CoverProfile;
+    for name in ["mold-1s", "mold-2s"] {
+        let p = load(name);
+        assert_eq!(p.cover.profile, CoverProfile::Uniform);
+        let (l, a) = conforming::assemble(&p).unwrap();
+        let over = checks::cover_over_domes(&l, &a);
+        assert_eq!(over.len(), p.fingertip.sensors.len());
+        let t = p.cover.thickness_mm;
+        for o in &over {
+            let (lo, hi) = (o["min_mm"].as_f64().unwrap(), o["max_mm"].as_f64().unwrap());
+            assert_eq!(o["points"].as_u64().unwrap(), 25);
+            assert!(lo >= 0.9 * t && hi <= 1.1 * t, "{name}: {lo}-{hi} vs {t}");
+            assert!(hi - lo < 0.02, "{name}: a flat window: {lo}-{hi}");
+        }
+        // the cover is the nominal over the domes, so the pad's shape does not show through
+        let mut fp = p.clone();
+        fp.cover.profile = CoverProfile::FollowPad;
+        let (l, a) = conforming::assemble(&fp).unwrap();
+        let over = checks::cover_over_domes(&l, &a);
+        let outside = over.iter().any(|o| o["min_mm"].as_f64().unwrap() < 0.9 * t || o["max_mm"].as_f64().unwrap() > 1.1 * t);
+        assert!(outside, "{name}: follow_pad within ±10 %: {over:?}");
+        if name == "mold-1s" {
+            let centre = over[0]["centre_mm"].as_f64().unwrap();
+            let seat = tipforge::fingertip::seat(&tipforge::fingertip::Shape::new(&fp.fingertip.body), &fp.fingertip.sensors[0]).unwrap();
+            let expected = t + seat.flat_depth - fp.fingertip.sensors[0].dome_height_mm;
+            assert!((centre - expected).abs() < 0.02, "centre {centre} vs {expected}");
+        }
+    }
 }
 
 /// The trapped-air rule in Rust: the 2s mold's cavity, without the vent drilled from its tilted

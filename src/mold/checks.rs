@@ -6,7 +6,7 @@ use super::Layout;
 use crate::checks::Violation;
 use crate::fingertip::{self, Shape};
 use crate::mesh::{self, add, dot, frame, norm, scale, sub, Solid, P3};
-use crate::params::mold::MoldParams;
+use crate::params::mold::{CoverProfile, MoldParams};
 use serde_json::{json, Value};
 
 /// Largest overlap (mm³) two assembled pieces may have: touching faces, no interference.
@@ -15,6 +15,8 @@ pub const MAX_OVERLAP_MM3: f64 = 1e-3;
 pub const MAX_INNER_GAP_MM: f64 = 0.05;
 /// The cover's outer surface over a dome may deviate this much from the undisturbed offset (mm).
 pub const MAX_HUMP_MM: f64 = 0.05;
+/// A uniform cover's thickness over each sensing area stays within this fraction of the nominal.
+pub const UNIFORM_TOLERANCE: f64 = 0.10;
 
 fn v(part: &str, rule: &'static str, measured: String) -> Violation {
     Violation { part: part.to_string(), rule, measured }
@@ -48,9 +50,9 @@ pub fn offset_along(shape: &Shape, t: f64, q: P3, dir: P3, s0: f64) -> Option<f6
 
 /// The conforming mold's checks. Returns the violations and the measurements.
 /// The cover's thickness over each sensing area, along the seat normal: at the centre and on
-/// circles at half and nine tenths of the dome's radius (8 points each), from the dome cavity to
-/// the outer surface. The outer surface follows the finger's pad (its exact offset), so the
-/// thickness over a dome is the nominal plus the flat's recess less the dome's height, and less
+/// circles at 0.5, 0.9 and 0.98 of the dome's radius (8 points each), from the dome cavity to the
+/// outer surface. A uniform cover's window makes it the nominal; a cover that follows the pad (its
+/// exact offset) is the nominal plus the flat's recess less the dome's height there, and less
 /// toward the dome's edge where the pad curves away.
 pub fn cover_over_domes(l: &Layout, a: &Assembled) -> Vec<Value> {
     let mut out = Vec::new();
@@ -67,7 +69,7 @@ pub fn cover_over_domes(l: &Layout, a: &Assembled) -> Vec<Value> {
         };
         let centre = along(d.base);
         let mut ring = Vec::new();
-        for frac in [0.5, 0.9] {
+        for frac in [0.5, 0.9, 0.98] {
             for k in 0..8 {
                 let t = k as f64 * std::f64::consts::FRAC_PI_4;
                 let q = crate::mesh::add(d.base, crate::mesh::add(crate::mesh::scale(u, frac * d.dome_r * t.cos()), crate::mesh::scale(v, frac * d.dome_r * t.sin())));
@@ -227,6 +229,9 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
         if ov > 1e-6 {
             out.push(v(name, "each sensor dome must fit its cavity with clearance ≥ 0", format!("sensor[{i}]: dome overlaps the cover by {ov:.5} mm³")));
         }
+        if p.cover.profile != CoverProfile::FollowPad {
+            continue;
+        }
         let hump = hump_mm(&l.shape, p.cover.thickness_mm, &a.cover, d.base, d.normal, d.r_base);
         humps.push(hump);
         #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN hump must fail the rule too
@@ -236,6 +241,22 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
                 "the cover's outer surface must not hump over a dome",
                 format!("sensor[{i}]: outer surface deviates {hump:.3} mm from the undisturbed offset (limit {MAX_HUMP_MM})"),
             ));
+        }
+    }
+
+    let over = cover_over_domes(l, a);
+    if p.cover.profile == CoverProfile::Uniform {
+        let nominal = p.cover.thickness_mm;
+        for (i, c) in over.iter().enumerate() {
+            let (lo, hi, n) = (c["min_mm"].as_f64().unwrap_or(f64::NAN), c["max_mm"].as_f64().unwrap_or(f64::NAN), c["points"].as_u64().unwrap_or(0));
+            #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN (no hit) must fail the rule too
+            if n < 25 || !(lo >= (1.0 - UNIFORM_TOLERANCE) * nominal && hi <= (1.0 + UNIFORM_TOLERANCE) * nominal) {
+                out.push(v(
+                    name,
+                    "a uniform cover is the nominal thickness ±10 % over each sensing area",
+                    format!("sensor[{i}]: {lo:.3}-{hi:.3} mm over {n} of 25 points, nominal {nominal} mm (allowed {:.3}-{:.3})", (1.0 - UNIFORM_TOLERANCE) * nominal, (1.0 + UNIFORM_TOLERANCE) * nominal),
+                ));
+            }
         }
     }
 
@@ -267,7 +288,7 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     }
     let measured = json!({
         "trapped_air_pockets": air.iter().map(|q| json!({"apex": q.apex, "depth_mm": q.depth_mm})).collect::<Vec<_>>(),
-        "cover_over_sensing_area_mm": cover_over_domes(l, a),
+        "cover_over_sensing_area_mm": over,
         "overlap_core_shell_mm3": core_shell,
         "overlap_core_cavity_mm3": core_cav,
         "overlap_shell_cavity_mm3": shell_cav,

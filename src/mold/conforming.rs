@@ -7,7 +7,7 @@ use super::{checks, layout, material, notes, openings, Layout, MoldBuild};
 use crate::error::{Error, Result};
 use crate::fingertip;
 use crate::mesh::{scale, segments, sub, Solid, P3};
-use crate::params::mold::MoldParams;
+use crate::params::mold::{CoverProfile, MoldParams};
 use crate::part::{Assembly, AssemblyObject, Part};
 use serde_json::{json, Map};
 
@@ -63,6 +63,93 @@ fn core_surface(p: &MoldParams, l: &Layout, body: &Solid, tol: f64) -> Solid {
     Solid::union_all(&parts).expect("the pad")
 }
 
+/// How far the flat window of a uniform cover reaches past the dome cavity's rim (mm).
+pub const UNIFORM_MARGIN_MM: f64 = 0.5;
+/// How far past a window's edge its 45° slope may run before it meets the pad's offset (mm).
+const BLEND_MM: f64 = 6.0;
+/// The window's edge slopes down at 45°, or steeper where the pad falls away faster (tan 1, 1.5, 2.5, 4).
+const SLOPES_TAN: [f64; 4] = [1.0, 1.5, 2.5, 4.0];
+/// A slope must still be inside the offset this far past where it meets it (mm along the window's
+/// radius): it enters the pad rather than grazing a flank steeper than itself.
+const LAND_PAST_MM: f64 = 0.3;
+/// The hull's anchor lies this far under the centre of the board's top face, inside the finger (mm).
+const ANCHOR_DEPTH_MM: f64 = 2.0;
+
+/// A uniform cover: over each dome the outer surface is the plane parallel to the seat at the
+/// nominal thickness over the dome cavity's top, out to the cavity's rim plus
+/// [`UNIFORM_MARGIN_MM`]. Where the pad's offset stands above that plane it is cut down (a cone
+/// widening outward at 45°, so the cut keeps its draft); where it falls below, the window's edge
+/// slopes down at 45° until it meets the offset, found along each of the window's radii, and the
+/// window is the hull of its disc and those landing points (so the blend hugs the pad whatever
+/// its shape beyond them).
+fn uniform_windows(outer: Solid, l: &Layout, t: f64, tol: f64) -> std::result::Result<Solid, String> {
+    let inside = |q: P3, n: P3| outer.ray_hits(q, crate::mesh::add(q, scale(n, 60.0))).len() % 2 == 1;
+    let mut cut = Vec::new();
+    let mut blends = vec![outer.clone()];
+    for d in &l.domes {
+        let n = d.normal;
+        let r = d.r_base + UNIFORM_MARGIN_MM;
+        let plane = crate::mesh::add(d.base, scale(n, d.depth + t));
+        let h_up = 5.0;
+        // the cut starts just outside the window's disc, so its polygon cannot clip the disc's rim
+        let rc = r + 0.05;
+        cut.push(Solid::cylinder(plane, n, h_up, rc, rc + h_up, segments(rc + h_up, tol)));
+        let anchor = crate::mesh::sub(d.base, scale(n, ANCHOR_DEPTH_MM));
+        let seg = segments(r + BLEND_MM, tol);
+        let (u, v, _) = crate::mesh::frame(n);
+        let radials: Vec<P3> = (0..seg)
+            .map(|k| {
+                let a = 2.0 * std::f64::consts::PI * k as f64 / seg as f64;
+                crate::mesh::add(scale(u, a.cos()), scale(v, a.sin()))
+            })
+            .collect();
+        // a point `s` mm past the window's edge along `radial`, on a slope of `tan` (depth per mm)
+        let on_slope = |radial: P3, s: f64, tan: f64| crate::mesh::add(plane, crate::mesh::sub(scale(radial, r + s), scale(n, s * tan)));
+        // where the slope meets the offset along one radius: the first step inside, refined by
+        // bisection, and only if the slope then goes on inside (it enters the pad; a slope that
+        // grazes a flank steeper than itself would come out again)
+        let landing = |radial: P3, tan: f64| -> Option<f64> {
+            if inside(on_slope(radial, 0.0, tan), n) {
+                return inside(on_slope(radial, LAND_PAST_MM, tan), n).then_some(0.0);
+            }
+            let step = 0.25;
+            let first = (1..=(BLEND_MM / step) as usize).map(|i| i as f64 * step).find(|&x| inside(on_slope(radial, x, tan), n))?;
+            let (mut lo, mut hi) = (first - step, first);
+            for _ in 0..10 {
+                let mid = 0.5 * (lo + hi);
+                if inside(on_slope(radial, mid, tan), n) {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            inside(on_slope(radial, hi + LAND_PAST_MM, tan), n).then_some(hi)
+        };
+        // one slope for the whole window: the gentlest (45° first, steeper as over the finger's
+        // rounded tip) that enters the pad on every radius within BLEND_MM
+        let found = SLOPES_TAN.iter().find_map(|&tan| radials.iter().map(|&q| landing(q, tan)).collect::<Option<Vec<f64>>>().map(|s| (tan, s)));
+        let Some((tan, lands)) = found else {
+            return Err(format!(
+                "the uniform cover's window over the dome at ({:.2}, {:.2}, {:.2}) finds no pad to slope down to within {BLEND_MM} mm: use cover.profile = \"follow_pad\" or a thinner cover",
+                d.base[0], d.base[1], d.base[2]
+            ));
+        };
+        let mut pts = Vec::new();
+        for (&q, &s) in radials.iter().zip(&lands) {
+            pts.push(on_slope(q, 0.0, tan));
+            // land a little inside the offset, down the same slope (every face keeps the slope)
+            pts.push(on_slope(q, s + 0.1, tan));
+        }
+        // the hull's underside runs from the landing points to one point under the board, inside
+        // the finger: only the window and its slopes stand outside the offset
+        pts.push(anchor);
+        blends.push(Solid::hull(&pts));
+    }
+    let Some(cut) = Solid::union_all(&cut) else { return Ok(outer) };
+    // cut last: a neighbouring window's blend may not stand over this window either
+    Ok(Solid::union_all(&blends).expect("the cover's outer solid").difference(&cut))
+}
+
 /// The sprue's radius `above` mm over the parting plane (it widens upward by its taper).
 pub fn sprue_radius(m: &crate::params::mold::Mold, above: f64) -> f64 {
     (m.sprue_diameter_mm / 2.0 + above * m.sprue_taper_deg.to_radians().tan()).max(0.05)
@@ -78,6 +165,10 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let ze = l.z_parting;
     let body = Solid::from_mesh(&s.body_mesh(tol, name)?, name)?;
     let outer = Solid::from_mesh(&s.offset_mesh(t, tol, name)?, name)?;
+    let outer = match c.profile {
+        CoverProfile::Uniform => uniform_windows(outer, &l, t, tol).map_err(|e| Error::geometry(name, e))?,
+        CoverProfile::FollowPad => outer,
+    };
     let surface = core_surface(p, &l, &body, tol);
     // into the mold's frame (the opening direction is +z there)
     let to_mold = |x: &Solid| {
@@ -495,8 +586,15 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     notes.push(pour_note(name, n, fits, &mat));
     for (i, c) in over_domes.as_array().into_iter().flatten().enumerate() {
         let f = |k: &str| c[k].as_f64().unwrap_or(f64::NAN);
+        let profile = match p.cover.profile {
+            CoverProfile::Uniform => format!(
+                "profile \"uniform\": a flat window parallel to the seat reaching {UNIFORM_MARGIN_MM} mm past the dome cavity, sloping down to the pad's offset at 45° (steeper where the pad falls away); held to ±{:.0} %",
+                checks::UNIFORM_TOLERANCE * 100.0
+            ),
+            CoverProfile::FollowPad => "profile \"follow_pad\": the outer surface follows the finger's pad, so the flat's recess adds and the pad's curvature takes away".to_string(),
+        };
         notes.push(format!(
-            "{name}: cover over sensor[{i}]'s sensing area: {:.2} mm at its centre, {:.2}-{:.2} mm over it (nominal {} mm: the outer surface follows the finger's pad, so the flat's recess adds and the pad's curvature takes away)",
+            "{name}: cover over sensor[{i}]'s sensing area: {:.2} mm at its centre, {:.2}-{:.2} mm over it (nominal {} mm; {profile})",
             f("centre_mm"),
             f("min_mm"),
             f("max_mm"),

@@ -143,7 +143,11 @@ pub fn layout(p: &MoldParams) -> std::result::Result<Layout, String> {
             dome_r: s.dome_diameter_mm / 2.0,
             tilt_deg: tilt,
             taper_deg: taper,
-            skin,
+            skin: match p.cover.profile {
+                // the window lies at the nominal thickness over the cavity's top; its skirt only adds
+                crate::params::mold::CoverProfile::Uniform => p.cover.thickness_mm,
+                crate::params::mold::CoverProfile::FollowPad => skin,
+            },
         });
         seats.push(st);
     }

@@ -91,8 +91,21 @@ pub fn pockets(cavity: &Mesh, z_top: f64, exits: &[Exit]) -> Vec<Pocket> {
             }
         }
     }
+    // only a ceiling holds air: a vertex with a face looking up out of the cavity (a high point of
+    // the floor, every face round it looking down, stays under the liquid's open surface)
+    let mut ceiling = vec![false; n];
+    for t in &cavity.triangles {
+        let q = t.map(|k| cavity.vertices[k as usize]);
+        let (a, b) = ([q[1][0] - q[0][0], q[1][1] - q[0][1]], [q[2][0] - q[0][0], q[2][1] - q[0][1]]);
+        // z of the (unnormalised) outward normal: the mesh is wound counter-clockwise seen from outside
+        if a[0] * b[1] - a[1] * b[0] > 1e-12 {
+            for &k in t {
+                ceiling[k as usize] = true;
+            }
+        }
+    }
     // trapped vertices, grouped by connection
-    let trapped: Vec<bool> = (0..n).map(|i| cavity.vertices[i][2] - spill[i] > MIN_DEPTH_MM).collect();
+    let trapped: Vec<bool> = (0..n).map(|i| ceiling[i] && cavity.vertices[i][2] - spill[i] > MIN_DEPTH_MM).collect();
     let mut seen = vec![false; n];
     let mut out = Vec::new();
     for start in 0..n {
@@ -171,5 +184,19 @@ mod tests {
         let ramp =
             Solid::hull(&[[0.0, 0.0, -3.0], [20.0, 0.0, -3.0], [0.0, 10.0, -3.0], [20.0, 10.0, -3.0], [0.0, 0.0, 0.0], [0.0, 10.0, 0.0], [20.0, 0.0, -1.0], [20.0, 10.0, -1.0]]);
         assert!(pockets(&ramp.to_mesh(), 0.0, &[]).is_empty());
+    }
+
+    #[test]
+    fn a_high_point_of_the_floor_traps_nothing() {
+        // a bump rising 0.5 mm from the floor into the liquid: every face round its top looks down
+        // out of the cavity (into the bump), so no air can stay there
+        let slab = Solid::cuboid([0.0, 0.0, -3.0], [20.0, 10.0, 0.0]);
+        let bump = Solid::cylinder([12.0, 5.0, -3.1], [0.0, 0.0, 1.0], 0.6, 2.0, 1.0, 32);
+        let cav = slab.difference(&bump).to_mesh();
+        assert!(pockets(&cav, 0.0, &[]).is_empty());
+        // the same bump turned into a dimple in the ceiling does trap air
+        let dimple = Solid::cylinder([12.0, 5.0, -1.5], [0.0, 0.0, 1.0], 0.6, 2.0, 1.0, 32);
+        let ceiling = Solid::cuboid([0.0, 0.0, -3.0], [20.0, 10.0, -1.0]).union(&Solid::cuboid([0.0, 0.0, -3.0], [2.0, 10.0, 0.0])).union(&dimple);
+        assert_eq!(pockets(&ceiling.to_mesh(), 0.0, &[]).len(), 1);
     }
 }

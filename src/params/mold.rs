@@ -21,6 +21,7 @@ pub struct RawCover {
     pub mix_ratio: Option<f64>,
     pub waste_margin_percent: Option<f64>,
     pub density_g_cm3: Option<f64>,
+    pub profile: Option<String>,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -101,6 +102,19 @@ pub struct Cover {
     pub mix_ratio: f64,
     pub waste_margin_percent: f64,
     pub density_g_cm3: f64,
+    pub profile: CoverProfile,
+}
+
+/// How the cover's outer surface runs over a sensing area.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CoverProfile {
+    /// A flat window parallel to the seat at the nominal thickness over the dome's top, reaching
+    /// `UNIFORM_MARGIN_MM` past the sensing area and blending into the pad's offset by 45° cones:
+    /// the thickness over the sensing area is the nominal.
+    Uniform,
+    /// The pad's exact offset everywhere: the flat's recess adds to the thickness and the pad's
+    /// curvature takes away (the summary states the profile).
+    FollowPad,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -226,6 +240,14 @@ fn cover_params(c: &mut Collector, r: &RawCover) -> Option<Cover> {
     let ratio = c.or_within(r.mix_ratio, 10.0, "cover.mix_ratio", 3.0, 30.0);
     let waste = c.or_within(r.waste_margin_percent, 25.0, "cover.waste_margin_percent", 0.0, 500.0);
     let density = c.or_within(r.density_g_cm3, 1.03, "cover.density_g_cm3", 0.5, 3.0);
+    let profile = match r.profile.as_deref() {
+        None | Some("uniform") => Some(CoverProfile::Uniform),
+        Some("follow_pad") => Some(CoverProfile::FollowPad),
+        Some(other) => {
+            c.push("cover.profile", other, "use \"uniform\" (the nominal thickness over each sensing area) or \"follow_pad\" (the pad's offset everywhere)");
+            None
+        }
+    };
     Some(Cover {
         thickness_mm: t?,
         from_tip_mm: from_tip?,
@@ -234,6 +256,7 @@ fn cover_params(c: &mut Collector, r: &RawCover) -> Option<Cover> {
         mix_ratio: ratio?,
         waste_margin_percent: waste?,
         density_g_cm3: density?,
+        profile: profile?,
     })
 }
 
