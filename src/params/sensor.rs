@@ -99,6 +99,12 @@ pub struct ProtocolParams {
     /// The hand's extra press during the touch, as a fraction of the weight (each placement draws
     /// 0.5–1.5 × it; a sin² bump over the touch).
     pub press_fraction: f64,
+    /// The hold at the top load (after the last weight is placed); default `hold_s`.
+    pub top_hold_s: f64,
+    /// The rest at zero load after the last removal; default `baseline_s`.
+    pub final_rest_s: f64,
+    /// Load–unload cycles, with `baseline_s` at zero load between them; default 1.
+    pub cycles: usize,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -152,7 +158,7 @@ pub static SENSOR_SCHEMA: Schema = Schema {
     ],
 };
 pub static PROTOCOL_SCHEMA: Schema =
-    Schema { fields: || &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s", "touch_s", "press_fraction"], tables: &[] };
+    Schema { fields: || &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s", "touch_s", "press_fraction", "top_hold_s", "final_rest_s", "cycles"], tables: &[] };
 
 fn num(c: &mut Collector, t: &Option<Table>, table: &str, key: &str, default: f64, lo: f64, hi: f64) -> Option<f64> {
     let path = format!("{table}.{key}");
@@ -303,8 +309,29 @@ impl ProtocolParams {
         let jit = num(&mut c, &t, "", "logging_jitter_s", 0.15, 0.0, 5.0);
         let touch = num(&mut c, &t, "", "touch_s", 0.0, 0.0, 5.0);
         let press = num(&mut c, &t, "", "press_fraction", 0.0, 0.0, 3.0);
+        let top = num(&mut c, &t, "", "top_hold_s", hold.unwrap_or(20.0), 1.0, 1e5);
+        let final_rest = num(&mut c, &t, "", "final_rest_s", base.unwrap_or(10.0), 1.0, 1e5);
+        let cycles = num(&mut c, &t, "", "cycles", 1.0, 1.0, 10.0).and_then(|x| {
+            if x.fract() == 0.0 {
+                Some(x as usize)
+            } else {
+                c.push("cycles", x, "a whole number of load-unload cycles, 1 to 10");
+                None
+            }
+        });
         let v = (|| {
-            Some(ProtocolParams { weights_g: weights?, hold_s: hold?, baseline_s: base?, logging_offset_s: off?, logging_jitter_s: jit?, touch_s: touch?, press_fraction: press? })
+            Some(ProtocolParams {
+                weights_g: weights?,
+                hold_s: hold?,
+                baseline_s: base?,
+                logging_offset_s: off?,
+                logging_jitter_s: jit?,
+                touch_s: touch?,
+                press_fraction: press?,
+                top_hold_s: top?,
+                final_rest_s: final_rest?,
+                cycles: cycles?,
+            })
         })();
         // paths of top-level keys carry a leading "." from the shared helper; tidy them
         for p in &mut c.problems {

@@ -1056,6 +1056,11 @@ pub struct Diagnosis {
     pub nuisances: Vec<NuisanceTerm>,
     #[serde(skip)]
     pub predictions: Vec<Prediction>,
+    /// For each finding whose name does not stand alone: the recording that would separate the
+    /// names, with both predicted (issue 16, item 2).
+    pub advice: Vec<super::advice::Advice>,
+    /// Why an ambiguous finding got no advice.
+    pub advice_notes: Vec<String>,
 }
 
 /// A window where the baseline fails, with the test that flagged it.
@@ -2016,7 +2021,9 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     }
     let notes =
         report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after))).collect();
-    Some(Outcome::Done(Box::new(Diagnosis {
+    let mut diagnosis = Diagnosis {
+        advice: Vec::new(),
+        advice_notes: Vec::new(),
         notes,
         nuisances,
         schema: SCHEMA,
@@ -2047,7 +2054,11 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         decisions,
         located,
         predictions,
-    })))
+    };
+    let (advice, advice_notes) = super::advice::advise(&diagnosis, &report, &recs[0]);
+    diagnosis.advice = advice;
+    diagnosis.advice_notes = advice_notes;
+    Some(Outcome::Done(Box::new(diagnosis)))
 }
 
 #[cfg(test)]

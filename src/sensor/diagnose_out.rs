@@ -58,6 +58,12 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
             d.unexplained.evidence.first().cloned().unwrap_or_default()
         ));
     }
+    for a in &d.advice {
+        out.push(format!("advice: {} (protocol: {}; plot: {})", a.sentence, a.protocol_file, a.plot));
+    }
+    for n in &d.advice_notes {
+        out.push(n.clone());
+    }
     for n in &d.notes {
         out.push(format!("creep-dominated baseline step: {n}"));
     }
@@ -86,6 +92,16 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     json.push('\n');
     st.add(dir.join("diagnosis.json"), json.into_bytes());
     let mut imgs = Vec::new();
+    let mut advice_html = String::new();
+    for a in &d.advice {
+        st.add(dir.join(&a.protocol_file), a.protocol_toml.clone().into_bytes());
+        st.add(dir.join(&a.plot), plot::render(&advice_charts(d, a), 1, 1100, 360));
+        advice_html += &format!("<h3>{} or {}</h3>\n<p>{} (<a href=\"{}\">{}</a>).</p>\n<table><tr><th>protocol change</th><th>length (s)</th><th>separation (noise σ)</th><th>RMS difference</th></tr>\n", a.effect, a.alternative, a.sentence, a.protocol_file, a.protocol_file);
+        for c in &a.candidates {
+            advice_html += &format!("<tr><td>{}</td><td>{:.0}</td><td>{:.2}</td><td>{}</td></tr>\n", c.change, c.duration_s, c.separation_sigma, sig4(c.rms_difference));
+        }
+        advice_html += &format!("</table>\n<p><img src=\"{}\" width=\"1100\"></p>\n", a.plot);
+    }
     for p in &d.predictions {
         let mut csv = String::with_capacity(p.time_s.len() * 40);
         if p.stride > 1 {
@@ -149,6 +165,13 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
         }
         html += "</table>\n";
     }
+    if !advice_html.is_empty() || !d.advice_notes.is_empty() {
+        html += "<h2>What to record next</h2>\n<p>Both names were simulated with the recording's twin (the named term, or the alternative fitted in its place), noise-free, on the recording's own protocol and on protocol changes; the separation is the distance between the two predictions in the recording's noise σ, deflated by the residuals' autocorrelation.</p>\n";
+        html += &advice_html;
+        for n in &d.advice_notes {
+            html += &format!("<p>{}</p>\n", esc(n));
+        }
+    }
     html += "<h2>Where the baseline fails</h2>\n<p>Each catalogue effect's signature and the whiteness test on the baseline's residuals, before any term is chosen.</p>\n<table><tr><th>test</th><th>recording</th><th>window (s)</th><th>statistic</th></tr>\n";
     for w in &d.located {
         html += &format!("<tr><td>{}</td><td>{}</td><td>{:.1}–{:.1}</td><td>{}</td></tr>\n", w.test, esc(&w.recording), w.start_s, w.end_s, esc(&w.statistic));
@@ -173,6 +196,32 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     html += "</body></html>\n";
     st.add(dir.join("report.html"), html.into_bytes());
     st
+}
+
+/// The advice's plot: both names' predictions on the advised protocol, and their difference.
+fn advice_charts(d: &Diagnosis, a: &super::advice::Advice) -> Vec<Chart> {
+    let [t, _load, va, vb] = &a.curves;
+    // at most about 4000 points a line
+    let step = (t.len() / 4000).max(1);
+    let pick = |v: &[f64]| v.iter().step_by(step).copied().collect::<Vec<f64>>();
+    let tt = pick(t);
+    let diff: Vec<f64> = va.iter().zip(vb).map(|(x, y)| x - y).collect();
+    vec![
+        Chart {
+            title: format!("ADVISED: {}", a.change.to_uppercase()),
+            x_label: "TIME S".into(),
+            y_label: d.unit.clone(),
+            series: vec![Series::line(a.effect, tt.clone(), pick(va), PALETTE[0]), Series::line(a.alternative, tt.clone(), pick(vb), PALETTE[1])],
+            shade: vec![],
+        },
+        Chart {
+            title: format!("DIFFERENCE (EXPECTED PAIRED Z {:.1})", a.separation_sigma),
+            x_label: "TIME S".into(),
+            y_label: d.unit.clone(),
+            series: vec![Series::line("difference", tt, pick(&diff), PALETTE[2])],
+            shade: vec![],
+        },
+    ]
 }
 
 /// A term's legend: the finding's name (the spectrum's is the name its shape or closest exact form

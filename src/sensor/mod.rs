@@ -1,5 +1,6 @@
 //! The sensor loop: recordings → preprocessing → fits → fashion curves → reports; the simulator.
 
+pub mod advice;
 pub mod analyze;
 pub mod catalogue;
 pub mod cli;

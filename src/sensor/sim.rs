@@ -112,17 +112,24 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
     let mut events: Vec<(f64, f64, &'static str, usize)> = Vec::new();
     let mut load = 0.0;
     let mut t = proto.baseline_s;
-    for (i, w) in proto.weights_g.iter().enumerate() {
-        load += w;
-        events.push((t, load, "loading", i));
-        t += proto.hold_s;
+    let nw = proto.weights_g.len();
+    for cycle in 0..proto.cycles {
+        if cycle > 0 {
+            // the rest at zero load between cycles
+            t += proto.baseline_s - proto.hold_s;
+        }
+        for (i, w) in proto.weights_g.iter().enumerate() {
+            load += w;
+            events.push((t, load, "loading", i + cycle * nw));
+            t += if i + 1 == nw { proto.top_hold_s } else { proto.hold_s };
+        }
+        for (i, w) in proto.weights_g.iter().rev().enumerate() {
+            load -= w;
+            events.push((t, load.max(0.0), "unloading", i + cycle * nw));
+            t += proto.hold_s;
+        }
     }
-    for (i, w) in proto.weights_g.iter().rev().enumerate() {
-        load -= w;
-        events.push((t, load.max(0.0), "unloading", i));
-        t += proto.hold_s;
-    }
-    let total = t - proto.hold_s + proto.baseline_s;
+    let total = t - proto.hold_s + proto.final_rest_s;
     let n = (total / dt).round() as usize + 1;
     let logs: Vec<f64> = events.iter().map(|ev| ev.0 + proto.logging_offset_s + proto.logging_jitter_s * rng.normal()).collect();
     let spike_signs: Vec<f64> = events.iter().map(|_| if rng.uniform() < 0.5 { -1.0 } else { 1.0 }).collect();

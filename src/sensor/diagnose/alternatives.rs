@@ -29,6 +29,28 @@ pub struct Alternative {
     pub heldout_rmse: f64,
     /// Paired z by which the named model predicts the held-out units better (negative: worse).
     pub z_named_over_this: f64,
+    /// Its term's parameters, fitted in the named term's place (as a finding's `term.params`): the
+    /// advice simulates the recording's sensor with it.
+    pub params: serde_json::Value,
+    /// The spread over held-out units of (its squared error − the named model's) per sample: how
+    /// noisy this data's comparison of the two is, for the advice's expected separation.
+    #[serde(skip)]
+    pub unit_sd_per_sample: f64,
+    /// The first-order part refitted with it in place ((load, level) and (load, τ), as `final`'s):
+    /// its twin's conductance law and relaxation.
+    #[serde(skip)]
+    pub first_order: (Vec<[f64; 2]>, Vec<[f64; 2]>),
+}
+
+/// The standard deviation over units of (b − a) / n: two scores' held-out squared errors per unit,
+/// per sample held out.
+fn unit_sd_per_sample(a: &Score, b: &Score) -> f64 {
+    let r: Vec<f64> = a.units.iter().zip(&b.units).zip(&a.unit_n).filter(|(_, &n)| n > 0).map(|((x, y), &n)| (y - x) / n as f64).collect();
+    if r.len() < 2 {
+        return 0.0;
+    }
+    let m = r.iter().sum::<f64>() / r.len() as f64;
+    (r.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (r.len() - 1) as f64).sqrt()
 }
 
 /// The alternatives of every physics term in `cur` (in the order of `cur.effects`).
@@ -47,14 +69,14 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
                 continue;
             }
             let Some(c) = candidate(e, &wo, ctx) else { continue };
-            let Some((s, _)) = score(ctx.d, ctx.trials, &c, ctx.hat) else { continue };
+            let Some((s, x)) = score(ctx.d, ctx.trials, &c, ctx.hat) else { continue };
             // a clip changes only the units that reach it: its evidence is tested there, whichever
             // of the two is the clip
             let on_clip = |a: &Score, b: &Score| change_z(e == Effect::Saturation || named == Effect::Saturation, a, b, ctx.clip_steps);
             let explains = s.heldout_rmse < s_wo.heldout_rmse && on_clip(&s_wo, &s) >= MIN_Z;
             let z_sep = on_clip(&s, cur_score);
             if explains && z_sep < Z_SEPARATE {
-                alts.push(Alternative { effect: e.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep });
+                alts.push(Alternative { effect: e.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep, params: term_params(ctx.d, &c, &x, e, ctx.hat), unit_sd_per_sample: unit_sd_per_sample(cur_score, &s), first_order: first_order_part(ctx.d, &c, &x, ctx.trials) });
             }
         }
         // a warm-up drift shared by the trials against the same decay fitted per trial (a
@@ -63,12 +85,12 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
             let mut c = wo.clone();
             c.effects.push(Effect::RestRelaxation);
             c.rest_tau = Some(tau);
-            if let Some((s, _)) = nuisance::rest_allowed(ctx.d, ctx.trials, tau).then(|| score(ctx.d, ctx.trials, &c, ctx.hat)).flatten() {
+            if let Some((s, x)) = nuisance::rest_allowed(ctx.d, ctx.trials, tau).then(|| score(ctx.d, ctx.trials, &c, ctx.hat)).flatten() {
                 // it must explain the residual itself, as every alternative does
                 let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
                 let z_sep = paired_z(&s.units, &cur_score.units);
                 if explains && z_sep < Z_SEPARATE {
-                    alts.push(Alternative { effect: Effect::RestRelaxation.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep });
+                    alts.push(Alternative { effect: Effect::RestRelaxation.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep, params: term_params(ctx.d, &c, &x, Effect::RestRelaxation, ctx.hat), unit_sd_per_sample: unit_sd_per_sample(cur_score, &s), first_order: first_order_part(ctx.d, &c, &x, ctx.trials) });
                 }
             }
         }
@@ -106,7 +128,7 @@ mod tests {
     #[test]
     fn the_sentence_names_every_candidate_and_none_without_alternatives() {
         assert_eq!(sentence("creep", &[]), None);
-        let a = |e| Alternative { effect: e, heldout_rmse: 1.0, z_named_over_this: 0.5 };
+        let a = |e| Alternative { effect: e, heldout_rmse: 1.0, z_named_over_this: 0.5, params: serde_json::json!({}), unit_sd_per_sample: 0.0, first_order: (vec![], vec![]) };
         let s = sentence("creep", &[a("second_time_constant")]).unwrap();
         assert!(s.starts_with("creep or second_time_constant: this recording cannot tell them apart"), "{s}");
         let s = sentence("creep", &[a("hysteresis"), a("baseline_drift")]).unwrap();
