@@ -165,7 +165,7 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
         ("fingertip = \"fingertip-1s.toml\"", "fingertip = \"nope.toml\"", "cannot read"),
         ("[mold]", "[mold]\nkey_diameter = 4.0", "did you mean `key_diameter_mm`"),
         ("cavities = 1 ", "cavities = 0 ", "mold.cavities = 0: must be a whole number from 1 to 12"),
-        ("[cover]", "[cover]\nprofile = \"even\"", "cover.profile = even: use \"uniform\""),
+        ("profile = \"uniform\"", "profile = \"even\"", "cover.profile = even: use \"uniform\""),
     ];
     for (from, to, needle) in cases {
         assert!(base.contains(from), "{from}");
@@ -187,7 +187,8 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
     let board = std::fs::read_to_string("params/fsr-8mm.toml").unwrap();
     assert!(board.contains("dome_height_mm = 1.0"));
     std::fs::write(d.join("params/fsr-8mm.toml"), board.replacen("dome_height_mm = 1.0", "dome_height_mm = 2.6", 1)).unwrap();
-    let follow = base.replacen("[cover]", "[cover]\nprofile = \"follow_pad\"", 1);
+    assert!(base.contains("profile = \"uniform\""));
+    let follow = base.replacen("profile = \"uniform\"", "profile = \"follow_pad\"", 1);
     let (code, text) = run(&d, &follow);
     assert_eq!(code, 2, "{text}");
     assert!(text.contains("breaks through") && text.contains("cover.thickness_mm"), "{text}");
