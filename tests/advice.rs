@@ -87,3 +87,20 @@ fn nothing_ambiguous_nothing_advised() {
     assert!(diag["advice"].as_array().unwrap().is_empty());
     assert!(!d.join("diag-rec/advice").exists());
 }
+
+/// What the advice bench exposed: a hysteresis recorded over two load-unload cycles. The contact's
+/// memory of the peak holds on the second cycle's loading steps too; a term that held it only on
+/// unloading steps lost the hysteresis to a drift there.
+#[test]
+fn hysteresis_over_two_cycles_is_named_hysteresis() {
+    let d = dir("cycles");
+    let proto = d.join("two-cycles.toml");
+    std::fs::write(&proto, "kind = \"protocol\"\nweights_g = [200, 200, 200, 200, 200]\nhold_s = 20.0\nbaseline_s = 10.0\ncycles = 2\n").unwrap();
+    let diag = simulate_and_diagnose(&d, "rec", ("fraction = 0.0            # unloading", "fraction = 0.01            # unloading"), &proto, 1011);
+    let named: Vec<&str> = diag["findings"].as_array().unwrap().iter().map(|f| f["effect"].as_str().unwrap()).collect();
+    assert_eq!(named.first(), Some(&"hysteresis"), "{named:?}");
+    let h = diag["findings"].as_array().unwrap().iter().find(|f| f["effect"] == "hysteresis").unwrap();
+    assert!(h["alternatives"].as_array().unwrap().is_empty(), "{h}");
+    let fraction = h["term"]["params"]["fraction"].as_f64().unwrap();
+    assert!((fraction - 0.01).abs() < 0.003, "fraction {fraction}");
+}

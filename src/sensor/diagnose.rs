@@ -448,6 +448,10 @@ impl Steps for TrialSteps<'_> {
     fn unloading(&self, q: usize) -> bool {
         self.tr.segs[q].phase == Phase::Unloading
     }
+    fn after_peak(&self, q: usize) -> bool {
+        // a step of a later cycle: an earlier step of this trial reached the highest level
+        self.unloading(q) || self.tr.segs[..q].iter().any(|sg| self.hat.level_of(sg.load) >= self.top)
+    }
 }
 
 /// Design columns of a catalogue term.

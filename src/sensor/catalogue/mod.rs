@@ -79,6 +79,11 @@ pub trait Steps {
     fn below_top(&self, q: usize) -> f64;
     /// Step q removes load.
     fn unloading(&self, q: usize) -> bool;
+    /// Step q begins after the highest load was reached (the contact's peak memory holds): every
+    /// unloading step, and in a repeated cycle the loading steps after the first top too.
+    fn after_peak(&self, q: usize) -> bool {
+        self.unloading(q)
+    }
 }
 
 /// One hold of one trial (from a step's onset to the next) with the residuals of a model.
