@@ -44,12 +44,39 @@ fn huber(r: f64, k: f64) -> (f64, f64) {
 /// relaxation, creep or drift add near the edge (a rise at 4τ, and a ramp and its square after the
 /// onset, over the window's length `span`). The load may arrive over a touch of `d` seconds from
 /// the onset (a hand lowering a weight): the rises are then the responses to that ramp.
-fn columns(t: f64, t0: f64, tau: f64, d: f64, span: f64) -> [f64; NCOL] {
+///
+/// With a touch, two more columns: the first-order response to a brief extra press of the hand, a
+/// smooth bump of force over the whole touch and over its first half. A press lasts as long as the
+/// touch; a handling spike is shorter than the shortest touch's half, so it stays in the residual.
+fn columns(t: f64, t0: f64, tau: f64, d: f64, span: f64, press: bool) -> [f64; NCOL] {
     if t > t0 {
         let r = (t - t0) / span;
-        [1.0, ramp_rise(t - t0, tau, d), ramp_rise(t - t0, 4.0 * tau, d), r, r * r]
+        let (b1, b2) = if press && d >= MIN_PRESS_TOUCH_S { (bump_response(t - t0, tau, d), bump_response(t - t0, tau, 0.5 * d)) } else { (0.0, 0.0) };
+        [1.0, ramp_rise(t - t0, tau, d), ramp_rise(t - t0, 4.0 * tau, d), r, r * r, b1, b2]
     } else {
-        [1.0, 0.0, 0.0, 0.0, 0.0]
+        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    }
+}
+
+/// The touches long enough to carry a press column (s): a press over half of a shorter touch would
+/// be as brief as a handling spike.
+const MIN_PRESS_TOUCH_S: f64 = 0.5;
+/// A hand's extra press is a fraction of the weight: a fitted press larger than this share of the
+/// step is not taken as one (the step is scanned without the press columns).
+const MAX_PRESS_SHARE: f64 = 0.12;
+
+/// The first-order response (time constant τ) at x ≥ 0 to a unit sin² bump of force over [0, w].
+fn bump_response(x: f64, tau: f64, w: f64) -> f64 {
+    let at = |x: f64| {
+        let om = 2.0 * std::f64::consts::PI / w;
+        let q = om * tau;
+        let e = (-x / tau).exp();
+        0.5 * (1.0 - e) - 0.5 * ((om * x).cos() + q * (om * x).sin() - e) / (1.0 + q * q)
+    };
+    if x <= w {
+        at(x)
+    } else {
+        at(w) * (-(x - w) / tau).exp()
     }
 }
 
@@ -68,7 +95,7 @@ fn ramp_rise(x: f64, tau: f64, d: f64) -> f64 {
 /// The touches tried (s): the load at once, or lowered by hand over these.
 const TOUCHES_S: [f64; 4] = [0.0, 0.25, 0.5, 1.0];
 
-const NCOL: usize = 5;
+const NCOL: usize = 7;
 
 /// Robust (Huber) fit of the local model over onsets near `t0_s` and time constants around
 /// `tau_s`; returns the residuals.
@@ -88,9 +115,9 @@ fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> Vec<f64> 
     };
     let mut cols = vec![[0.0f64; NCOL]; n];
     let model = |c: &[f64; NCOL], x: &[f64; NCOL]| c.iter().zip(x).map(|(a, b)| a * b).sum::<f64>();
-    let fit = |t0: f64, tau: f64, d: f64, cols: &mut Vec<[f64; NCOL]>| -> (f64, [f64; NCOL]) {
+    let fit = |t0: f64, tau: f64, d: f64, press: bool, cols: &mut Vec<[f64; NCOL]>| -> (f64, [f64; NCOL]) {
         for j in 0..n {
-            cols[j] = columns(t[j], t0, tau, d, span);
+            cols[j] = columns(t[j], t0, tau, d, span, press);
         }
         let mut x = start;
         // Huber's loss: convex, so no fit may buy a wrong onset by calling the edge an outlier
@@ -127,19 +154,25 @@ fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> Vec<f64> 
     let mut best = (f64::INFINITY, st.t0_s, st.tau_s, start);
     let mut touch = 0.0;
     // coarse onsets and touches at the part-1 τ (a touch starts about half of it earlier), then
-    // τ, then fine onsets
+    // τ, then fine onsets. The touch is chosen by its ramp alone (a press column could take up a
+    // spike and call it a touch); a touch that long gets the press columns from then on
     for d in TOUCHES_S {
         for g in 0..=30 {
             let t0 = st.t0_s - 0.3 - 0.5 * d + 0.02 * g as f64;
-            let (o, x) = fit(t0, st.tau_s, d, &mut cols);
+            let (o, x) = fit(t0, st.tau_s, d, false, &mut cols);
             if o < best.0 {
                 best = (o, t0, st.tau_s, x);
                 touch = d;
             }
         }
     }
+    let mut press = touch >= MIN_PRESS_TOUCH_S;
+    if press {
+        let (o, x) = fit(best.1, best.2, touch, true, &mut cols);
+        best = (o, best.1, best.2, x);
+    }
     for f in [0.5, 0.7, 1.4, 2.0] {
-        let (o, x) = fit(best.1, f * st.tau_s, touch, &mut cols);
+        let (o, x) = fit(best.1, f * st.tau_s, touch, press, &mut cols);
         if o < best.0 {
             best = (o, best.1, f * st.tau_s, x);
         }
@@ -150,21 +183,30 @@ fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64) -> Vec<f64> 
         let (t_c, tau_c) = (best.1, best.2);
         for g in 0..=n_tau {
             let tau = tau_c * (1.0 - span + 2.0 * span * g as f64 / n_tau.max(1) as f64);
-            let (o, x) = fit(t_c, tau, touch, &mut cols);
+            let (o, x) = fit(t_c, tau, touch, press, &mut cols);
             if o < best.0 {
                 best = (o, t_c, tau, x);
             }
         }
         for g in 0..=n_t0 {
             let t0 = t_c - 0.5 * dt0 * n_t0 as f64 + dt0 * g as f64;
-            let (o, x) = fit(t0, best.2, touch, &mut cols);
+            let (o, x) = fit(t0, best.2, touch, press, &mut cols);
             if o < best.0 {
                 best = (o, t0, best.2, x);
             }
         }
     }
-    let (_, t0, tau, x) = best;
-    (0..n).map(|j| v[j] - model(&columns(t[j], t0, tau, touch, span), &x)).collect()
+    let (_, t0, tau, mut x) = best;
+    // a press larger than a hand's is not one: the step is scanned with the ramp alone
+    let bump = (0..n).map(|j| {
+        let c = columns(t[j], t0, tau, touch, span, press);
+        (c[5] * x[5] + c[6] * x[6]).abs()
+    });
+    if press && bump.fold(0.0, f64::max) > MAX_PRESS_SHARE * x[1].abs() {
+        press = false;
+        x = fit(t0, tau, touch, false, &mut cols).1;
+    }
+    (0..n).map(|j| v[j] - model(&columns(t[j], t0, tau, touch, span, press), &x)).collect()
 }
 
 /// One recording as the edge detector sees it: its samples, noise and steps.
