@@ -157,7 +157,7 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
         ("from_tip_mm = 20.0 ", "from_tip_mm = 11.0 ", "flat seat and its 45° spot face reach"),
         ("parting_below_midplane_mm = 2.5", "parting_below_midplane_mm = 0.0", "less than the draft"),
         ("parting_below_midplane_mm = 2.5", "parting_below_midplane_mm = 5.0", "inside the pad"),
-        ("vent_diameter_mm = 0.8", "vent_diameter_mm = 1.6", "wider than the cavity's rim"),
+        ("vent_diameter_mm = 1.0", "vent_diameter_mm = 1.6", "wider than the cavity's rim"),
         ("demolding_tilt_deg = 5.080", "demolding_tilt_deg = 30.0", "mold.demolding_tilt_deg"),
         ("parting_below_midplane_mm = 2.5", "parting_below_midplane_mm = 1.0", "parting_below_midplane_mm"),
         ("material = \"PLA\"", "material = \"ABS\"", "mold.material"),
@@ -177,7 +177,7 @@ fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
     }
     // several problems at once
     let t =
-        base.replacen("thickness_mm = 1.5 ", "thickness_mm = 0.01 ", 1).replacen("vent_diameter_mm = 0.8", "vent_diameter_mm = 9", 1).replacen("key_count = 3", "key_count = 7", 1);
+        base.replacen("thickness_mm = 1.5 ", "thickness_mm = 0.01 ", 1).replacen("vent_diameter_mm = 1.0", "vent_diameter_mm = 9", 1).replacen("key_count = 3", "key_count = 7", 1);
     let (code, text) = run(&d, &t);
     assert_eq!(code, 2);
     for needle in ["cover.thickness_mm", "mold.vent_diameter_mm", "mold.key_count"] {
