@@ -41,3 +41,25 @@ fn geometric_rules_still_apply_through_the_family() {
     let e = tipforge::fingertip::load(&src, "bad", std::path::Path::new("params")).unwrap_err();
     assert!(e.is_input() && e.to_string().contains("bad.toml:"), "{e}");
 }
+
+/// The diagnosis is read by the twin and the advice, never the other way: `sensor::diagnose` and its
+/// stages do not name `advice` or `twin` (an import circle), and `cli` joins them.
+#[test]
+fn the_diagnosis_does_not_call_the_advice_or_the_twin() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/sensor");
+    let mut files = vec![root.join("diagnose.rs")];
+    for entry in std::fs::read_dir(root.join("diagnose")).unwrap() {
+        files.push(entry.unwrap().path());
+    }
+    let mut out = Vec::new();
+    for path in files {
+        let text = std::fs::read_to_string(&path).unwrap();
+        for (i, line) in text.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            if ["advice::", "twin::"].iter().any(|f| code.contains(f)) {
+                out.push(format!("{}:{}: {}", path.display(), i + 1, line.trim()));
+            }
+        }
+    }
+    assert!(out.is_empty(), "the diagnosis calls downstream:\n{}", out.join("\n"));
+}

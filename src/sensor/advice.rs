@@ -22,11 +22,11 @@
 //! ambiguous.
 
 use super::analyze::Report;
+pub use super::diagnose::{Advice, Candidate};
 use super::diagnose::Diagnosis;
 use super::recording::Recording;
 use super::sim;
 use crate::params::sensor::{ProtocolParams, SensorParams};
-use serde::Serialize;
 
 /// The separation (in noise σ) at which the advised recording decides between the two names.
 pub const MIN_SEPARATION_SIGMA: f64 = 3.0;
@@ -36,47 +36,6 @@ const LONG_MIN_S: f64 = 600.0;
 /// The seed of the advice's noise-free simulations (the signals do not depend on it but for the
 /// logging jitter, which is off).
 const SEED: u64 = 16;
-
-/// One protocol change and the separation it gives.
-#[derive(Debug, Clone, Serialize)]
-pub struct Candidate {
-    pub change: &'static str,
-    pub duration_s: f64,
-    pub separation_sigma: f64,
-    /// RMS of the difference between the two predicted signals, in the response unit.
-    pub rms_difference: f64,
-}
-
-/// The advice for one ambiguous finding.
-#[derive(Debug, Clone, Serialize)]
-pub struct Advice {
-    /// Index of the finding in `findings`.
-    pub finding: usize,
-    pub effect: &'static str,
-    pub alternative: &'static str,
-    /// The advised change (one of the candidates).
-    pub change: &'static str,
-    pub sentence: String,
-    /// The advised protocol, relative to the output folder.
-    pub protocol_file: String,
-    pub plot: String,
-    /// The expected paired z between the two names on the advised protocol and on the recording's own.
-    pub separation_sigma: f64,
-    pub separation_sigma_now: f64,
-    /// The paired z by which the named model predicted the recording's held-out units better than
-    /// the alternative (what the recording itself showed).
-    pub z_observed: f64,
-    /// The held-out RMSE each name is expected to reach on the advised recording when the other
-    /// is true (√(σ² + mean squared difference)), against σ when it is the true one.
-    pub heldout_rmse_if_right: f64,
-    pub heldout_rmse_if_wrong: f64,
-    pub candidates: Vec<Candidate>,
-    #[serde(skip)]
-    pub protocol_toml: String,
-    /// Time, load (g), the named and the alternative's predictions on the advised protocol.
-    #[serde(skip)]
-    pub curves: [Vec<f64>; 4],
-}
 
 /// The advice for every ambiguous finding, and a note for each one that could not be advised
 /// (why: no divider metadata, a term the simulator has no form for, …).

@@ -284,6 +284,12 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
             )
         })?;
     super::heldout_guard::check(&d, &recs)?;
+    // what to record next, for every finding whose name does not stand alone
+    let mut d = d;
+    if d.findings.iter().any(|f| !f.alternatives.is_empty()) {
+        let (report, _) = super::analyze::analyze(&recs, &opts);
+        (d.advice, d.advice_notes) = super::advice::advise(&d, &report, &recs[0]);
+    }
     // the calibrated twin: the fashion curves of the same analysis, the diagnosis's terms
     let twin = match write_sensor {
         Some(path) => {

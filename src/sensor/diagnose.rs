@@ -1061,8 +1061,8 @@ pub struct Diagnosis {
     #[serde(skip)]
     pub predictions: Vec<Prediction>,
     /// For each finding whose name does not stand alone: the recording that would separate the
-    /// names, with both predicted (issue 16, item 2).
-    pub advice: Vec<super::advice::Advice>,
+    /// names, with both predicted (issue 16, item 2; set by `cli::diagnose` through `advice`).
+    pub advice: Vec<Advice>,
     /// Why an ambiguous finding got no advice.
     pub advice_notes: Vec<String>,
 }
@@ -2025,7 +2025,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     }
     let notes =
         report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after))).collect();
-    let mut diagnosis = Diagnosis {
+    let diagnosis = Diagnosis {
         advice: Vec::new(),
         advice_notes: Vec::new(),
         notes,
@@ -2059,10 +2059,51 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         located,
         predictions,
     };
-    let (advice, advice_notes) = super::advice::advise(&diagnosis, &report, &recs[0]);
-    diagnosis.advice = advice;
-    diagnosis.advice_notes = advice_notes;
     Some(Outcome::Done(Box::new(diagnosis)))
+}
+
+// The advice's data (computed by `sensor::advice`, which reads the diagnosis; kept here so the
+// diagnosis names no module downstream of it).
+
+/// One protocol change and the separation it gives.
+#[derive(Debug, Clone, Serialize)]
+pub struct Candidate {
+    pub change: &'static str,
+    pub duration_s: f64,
+    pub separation_sigma: f64,
+    /// RMS of the difference between the two predicted signals, in the response unit.
+    pub rms_difference: f64,
+}
+
+/// The advice for one ambiguous finding.
+#[derive(Debug, Clone, Serialize)]
+pub struct Advice {
+    /// Index of the finding in `findings`.
+    pub finding: usize,
+    pub effect: &'static str,
+    pub alternative: &'static str,
+    /// The advised change (one of the candidates).
+    pub change: &'static str,
+    pub sentence: String,
+    /// The advised protocol, relative to the output folder.
+    pub protocol_file: String,
+    pub plot: String,
+    /// The expected paired z between the two names on the advised protocol and on the recording's own.
+    pub separation_sigma: f64,
+    pub separation_sigma_now: f64,
+    /// The paired z by which the named model predicted the recording's held-out units better than
+    /// the alternative (what the recording itself showed).
+    pub z_observed: f64,
+    /// The held-out RMSE each name is expected to reach on the advised recording when the other
+    /// is true (√(σ² + mean squared difference)), against σ when it is the true one.
+    pub heldout_rmse_if_right: f64,
+    pub heldout_rmse_if_wrong: f64,
+    pub candidates: Vec<Candidate>,
+    #[serde(skip)]
+    pub protocol_toml: String,
+    /// Time, load (g), the named and the alternative's predictions on the advised protocol.
+    #[serde(skip)]
+    pub curves: [Vec<f64>; 4],
 }
 
 #[cfg(test)]
