@@ -132,13 +132,16 @@ pub fn protocol_of(rec: &Recording) -> Option<ProtocolParams> {
     let start = p[0];
     let top = changes.iter().map(|c| c.1).fold(f64::NEG_INFINITY, f64::max);
     let i_top = changes.iter().position(|c| c.1 == top)?;
-    let mut weights = Vec::new();
+    let mut weights: Vec<f64> = Vec::new();
     let mut prev = start;
     for c in &changes[..=i_top] {
         if c.1 > prev {
             weights.push(g(c.1)? - g(prev)?);
         }
         prev = c.1;
+    }
+    if weights.is_empty() {
+        return None;
     }
     let mut holds: Vec<f64> = changes.windows(2).map(|w| w[1].0 - w[0].0).collect();
     let top_hold = changes.get(i_top + 1).map(|c| c.0 - changes[i_top].0)?;
@@ -193,12 +196,25 @@ struct Run {
     load: Vec<f64>,
     a: Vec<f64>,
     b: Vec<f64>,
+    /// Samples of the recording each simulated sample stands for.
+    weight: f64,
 }
 
+/// The most samples an advice simulation takes: a longer protocol is simulated at a lower rate and
+/// each sample stands for `weight` of the recording's.
+const MAX_SAMPLES: f64 = 200_000.0;
+
 fn run_both(named: &SensorParams, other: &SensorParams, proto: &ProtocolParams) -> Run {
-    let (ra, ta) = sim::simulate(named, proto, named.preload_g, None, SEED);
-    let (_, tb) = sim::simulate(other, proto, other.preload_g, None, SEED);
-    Run { t: ra.time_s, load: ra.protocol, a: ta.clean_v, b: tb.clean_v }
+    let rate = named.circuit.sample_rate_hz;
+    let slower = (MAX_SAMPLES / duration(proto).max(1.0)).min(rate);
+    let at = |p: &SensorParams| {
+        let mut q = p.clone();
+        q.circuit.sample_rate_hz = slower;
+        q
+    };
+    let (ra, ta) = sim::simulate(&at(named), proto, named.preload_g, None, SEED);
+    let (_, tb) = sim::simulate(&at(other), proto, other.preload_g, None, SEED);
+    Run { t: ra.time_s, load: ra.protocol, a: ta.clean_v, b: tb.clean_v, weight: rate / slower }
 }
 
 /// The paired z between the two names on `run`'s protocol, and the RMS of their difference.
@@ -211,8 +227,8 @@ fn separation(run: &Run, noise: &Noise) -> (f64, f64) {
     starts.push(n);
     let (mut sum, mut var) = (0.0, 0.0);
     for w in starts.windows(2) {
-        let s: f64 = d2[w[0]..w[1]].iter().sum();
-        let sd = (noise.unit_sd_per_sample * (w[1] - w[0]) as f64).max(2.0 * noise.sigma * s.sqrt());
+        let s: f64 = run.weight * d2[w[0]..w[1]].iter().sum::<f64>();
+        let sd = (noise.unit_sd_per_sample * run.weight * (w[1] - w[0]) as f64).max(2.0 * noise.sigma * s.sqrt());
         sum += s;
         var += sd * sd;
     }
@@ -354,6 +370,15 @@ mod tests {
         let now = separation(&run_both(&a, &b, &base), &noise).0;
         let long = separation(&run_both(&a, &b, &ProtocolParams { final_rest_s: 600.0, ..base.clone() }), &noise).0;
         assert!(now > 0.0 && long > 2.0 * now, "{now} {long}");
+        // a long protocol simulated at a lower rate reads about the same z
+        let long_p = ProtocolParams { final_rest_s: 600.0, ..base.clone() };
+        let full = separation(&run_both(&a, &b, &long_p), &noise).0;
+        let (mut a2, mut b2) = (a.clone(), b.clone());
+        a2.circuit.sample_rate_hz = 25.0;
+        b2.circuit.sample_rate_hz = 25.0;
+        let slow = Run { weight: 4.0, ..run_both(&a2, &b2, &long_p) };
+        let cut = separation(&slow, &noise).0;
+        assert!((cut / full - 1.0).abs() < 0.1, "{cut} vs {full}");
         // noisier units (as the recording showed) lower it
         let noisy = Noise { unit_sd_per_sample: 1e-4, ..noise };
         assert!(separation(&run_both(&a, &b, &base), &noisy).0 < now);
