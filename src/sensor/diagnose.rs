@@ -92,7 +92,7 @@ impl Trial {
     /// The simulator's prediction (0 without a simulator baseline).
     fn prior(&self, t: f64) -> f64 {
         let Some(p0) = self.prior0 else { return 0.0 };
-        p0 + self.segs.iter().filter(|s| t >= s.t0).filter_map(|s| s.sim.map(|(dv, tau)| dv * (1.0 - (-(t - s.t0) / tau).exp()))).sum::<f64>()
+        p0 + self.segs.iter().filter(|s| t >= s.t0).filter_map(|s| s.sim.map(|(dv, tau)| dv * (1.0 - catalogue::decay((t - s.t0) / tau)))).sum::<f64>()
     }
 }
 
@@ -345,7 +345,7 @@ impl Design {
             }
         }
         if let (Some(tau), true) = (cfg.rest_tau, self.n_rests(cfg) > 0) {
-            out[self.rest_col(cfg) + i] = (-(t - tr.t[0]).max(0.0) / tau).exp();
+            out[self.rest_col(cfg) + i] = catalogue::decay((t - tr.t[0]).max(0.0) / tau);
         }
     }
 }
@@ -1241,7 +1241,7 @@ fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
         // v = a + b·u(t), u = 1 − e^(−(t − t0)/τ) after t0, 0 before: linear least squares in (a, b)
         let (mut s_u, mut s_uu, mut s_v, mut s_uv, mut s_vv) = (0.0, 0.0, 0.0, 0.0, 0.0);
         for &(t, v) in &pts {
-            let u = if t > t0 { 1.0 - (-(t - t0) / tau).exp() } else { 0.0 };
+            let u = if t > t0 { 1.0 - catalogue::decay((t - t0) / tau) } else { 0.0 };
             s_u += u;
             s_uu += u * u;
             s_v += v;

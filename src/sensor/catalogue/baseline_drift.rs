@@ -18,7 +18,7 @@ pub const WARMUP_TAUS_S: [f64; 6] = [20.0, 40.0, 80.0, 160.0, 320.0, 640.0];
 pub fn column(t: f64, t_start: f64, warmup_tau: Option<f64>) -> f64 {
     let dt = t - t_start;
     match warmup_tau {
-        Some(tau) => tau * (1.0 - (-dt / tau).exp()),
+        Some(tau) => tau * (1.0 - super::decay(dt / tau)),
         None => dt,
     }
 }

@@ -15,7 +15,7 @@ pub const EXPLANATION: &str = "at the same load the unloading branch stays away 
 pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
     let h = |q: usize| if s.after_peak(q) { s.below_top(q) } else { 0.0 };
     let prev = if cur > 0 { h(cur - 1) } else { 0.0 };
-    h(cur) + (prev - h(cur)) * (-(t - s.t0(cur)) / s.tau(cur)).exp()
+    h(cur) + (prev - h(cur)) * super::decay((t - s.t0(cur)) / s.tau(cur))
 }
 
 /// The later half of a hold (and after 3τ).

@@ -32,7 +32,7 @@ pub fn grid(lo_s: f64, hi_s: f64) -> Vec<f64> {
 /// (ramp 0: a jump at `end`).
 pub fn kernel(t: f64, end: f64, ramp_s: f64, tau: f64) -> f64 {
     if ramp_s <= 0.0 {
-        return if t >= end { (-(t - end) / tau).exp() } else { 0.0 };
+        return if t >= end { super::decay((t - end) / tau) } else { 0.0 };
     }
     let start = end - ramp_s;
     if t <= start {
@@ -43,8 +43,8 @@ pub fn kernel(t: f64, end: f64, ramp_s: f64, tau: f64) -> f64 {
         return 0.0;
     }
     // (1/D)∫_{start}^{min(t, end)} e^{−(t−s)/τ} ds
-    let upper = (-(t - t.min(end)) / tau).exp();
-    tau / ramp_s * (upper - (-x).exp())
+    let upper = super::decay((t - t.min(end)) / tau);
+    tau / ramp_s * (upper - super::decay(x))
 }
 
 /// The second-difference penalty along log τ for `sets` consecutive sets of `k` amplitudes

@@ -49,8 +49,8 @@ pub fn columns(s: &impl Steps, active: &[usize], t: f64, tau2_s: f64, drive: Dri
     for &q in active {
         let since = t - s.t0(q);
         match drive {
-            Drive::Change => out[0] += s.dv(q) * ((-since / s.tau(q)).exp() - (-since / tau2_s).exp()),
-            Drive::Size => out[usize::from(s.unloading(q))] += s.dv(q).abs() * (-since / tau2_s).exp(),
+            Drive::Change => out[0] += s.dv(q) * (super::decay(since / s.tau(q)) - super::decay(since / tau2_s)),
+            Drive::Size => out[usize::from(s.unloading(q))] += s.dv(q).abs() * super::decay(since / tau2_s),
         }
     }
 }
