@@ -87,7 +87,6 @@ pub fn advise(d: &Diagnosis, report: &Report, rec: &Recording) -> (Vec<Advice>, 
             Ok((named, other, caveat)) => {
                 let noise = Noise { sigma: named.noise_v, z_observed: alt.z_named_over_this, unit_sd_per_sample: alt.unit_sd_per_sample, trials };
                 let mut a = advise_one(i, f.effect, alt.effect, &named, &other, &base, &noise);
-                a.z_observed = alt.z_named_over_this;
                 if let Some(c) = caveat {
                     a.sentence = format!("{} ({c})", a.sentence);
                 }
@@ -177,9 +176,7 @@ fn candidates(base: &ProtocolParams) -> Vec<(&'static str, ProtocolParams)> {
 }
 
 fn duration(p: &ProtocolParams) -> f64 {
-    let n = p.weights_g.len() as f64;
-    let c = p.cycles as f64;
-    p.baseline_s * c + c * ((2.0 * n - 2.0) * p.hold_s + p.top_hold_s) + p.final_rest_s
+    sim::schedule(p).1
 }
 
 /// What the comparison of two names is measured against.
@@ -284,7 +281,7 @@ fn advise_one(i: usize, effect: &'static str, alternative: &'static str, named: 
         plot: format!("plots/advice-{i}.png"),
         separation_sigma: c.separation_sigma,
         separation_sigma_now: now,
-        z_observed: 0.0,
+        z_observed: noise.z_observed,
         heldout_rmse_if_right: sigma,
         heldout_rmse_if_wrong: (sigma * sigma + c.rms_difference * c.rms_difference).sqrt(),
         candidates: cands.into_iter().map(|(c, _)| c).collect(),
@@ -312,12 +309,7 @@ pub fn protocol_toml(p: &ProtocolParams, why: &str) -> String {
 mod tests {
     use super::*;
 
-    fn defaults() -> (SensorParams, ProtocolParams) {
-        use crate::params::SourceFile;
-        let s = SensorParams::from_source(&SourceFile::parse("s.toml", std::fs::read_to_string("params/sensor.toml").unwrap()).unwrap()).unwrap();
-        let p = ProtocolParams::from_source(&SourceFile::parse("p.toml", std::fs::read_to_string("params/protocol-1000g.toml").unwrap()).unwrap()).unwrap();
-        (s, p)
-    }
+    use sim::tests::defaults;
 
     fn sensor() -> SensorParams {
         defaults().0

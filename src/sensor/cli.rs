@@ -284,20 +284,21 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
             )
         })?;
     super::heldout_guard::check(&d, &recs)?;
+    // the analysis's report, once, when the advice or the twin needs its fashion curves
+    let ambiguous = d.findings.iter().any(|f| !f.alternatives.is_empty());
+    let report = (ambiguous || write_sensor.is_some()).then(|| super::analyze::analyze(&recs, &opts).0);
     // what to record next, for every finding whose name does not stand alone
     let mut d = d;
-    if d.findings.iter().any(|f| !f.alternatives.is_empty()) {
-        let (report, _) = super::analyze::analyze(&recs, &opts);
-        (d.advice, d.advice_notes) = super::advice::advise(&d, &report, &recs[0]);
+    if let (true, Some(report)) = (ambiguous, &report) {
+        (d.advice, d.advice_notes) = super::advice::advise(&d, report, &recs[0]);
     }
     // the calibrated twin: the fashion curves of the same analysis, the diagnosis's terms
-    let twin = match write_sensor {
-        Some(path) => {
-            let (report, _) = super::analyze::analyze(&recs, &opts);
-            let text = super::twin::sensor_toml(&d, &report, &recs[0]).map_err(|why| Error::input(&recs[0].source, "--write-sensor", path.display(), why))?;
+    let twin = match (write_sensor, &report) {
+        (Some(path), Some(report)) => {
+            let text = super::twin::sensor_toml(&d, report, &recs[0]).map_err(|why| Error::input(&recs[0].source, "--write-sensor", path.display(), why))?;
             Some((path.to_path_buf(), text))
         }
-        None => None,
+        _ => None,
     };
     // the recordings are the largest thing held: gone before the outputs are built
     drop(recs);

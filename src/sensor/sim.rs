@@ -102,13 +102,9 @@ impl SensorParams {
     }
 }
 
-/// Simulates one trial.
-pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover: Option<&Cover>, seed: u64) -> (Recording, Truth) {
-    let mut rng = Rng::new(seed);
-    let c = &p0.circuit;
-    let dt = 1.0 / c.sample_rate_hz;
-    let e = &p0.effects;
-    // schedule: (landing time, load after) for each placement and removal
+/// The protocol's schedule: (landing time, load after, phase, index) for each placement and
+/// removal, in order, and the recording's length (s).
+pub fn schedule(proto: &ProtocolParams) -> (Vec<(f64, f64, &'static str, usize)>, f64) {
     let mut events: Vec<(f64, f64, &'static str, usize)> = Vec::new();
     let mut load = 0.0;
     let mut t = proto.baseline_s;
@@ -130,6 +126,16 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         }
     }
     let total = t - proto.hold_s + proto.final_rest_s;
+    (events, total)
+}
+
+/// Simulates one trial.
+pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover: Option<&Cover>, seed: u64) -> (Recording, Truth) {
+    let mut rng = Rng::new(seed);
+    let c = &p0.circuit;
+    let dt = 1.0 / c.sample_rate_hz;
+    let e = &p0.effects;
+    let (events, total) = schedule(proto);
     let n = (total / dt).round() as usize + 1;
     let logs: Vec<f64> = events.iter().map(|ev| ev.0 + proto.logging_offset_s + proto.logging_jitter_s * rng.normal()).collect();
     let spike_signs: Vec<f64> = events.iter().map(|_| if rng.uniform() < 0.5 { -1.0 } else { 1.0 }).collect();
@@ -328,7 +334,7 @@ pub fn to_csv(rec: &Recording, comment: &str) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::params::SourceFile;
 
