@@ -331,11 +331,11 @@ def load_pieces(mold, root):
     core, shell = load(mold["pieces"][0], fr["core_print_to_assembled"]), load(mold["pieces"][1], fr["shell_print_to_assembled"])
     # where the pieces touch (the parting plane), float32 STL vertices leave films a fraction of a
     # micrometre thick that can join the key holes to the cavity: seal every place where they lie
-    # within SEAL_MM of each other along the opening direction (the smallest designed gap is 0.2 mm)
+    # within SEAL_MM of each other along the opening direction (the smallest designed gap is 0.2 mm);
+    # the core lies on the `up` side of the parting plane, the shell below it
     up, _ = pour_up(mold)
     shift = lambda m, d: m.translate(list(up * d))
-    seal = (shift(core, -SEAL_MM) ^ shift(shell, SEAL_MM)) + (shift(core, SEAL_MM) ^ shift(shell, -SEAL_MM))
-    return core + shell + seal
+    return core + shell + (shift(core, -SEAL_MM) ^ shift(shell, SEAL_MM))
 
 
 def drill(pieces, mold, points, r=0.4):
@@ -358,7 +358,7 @@ def check_mold(name, mold, root, h, dz, tilt_deg, pieces=None):
     up, why = pour_up(mold)
     rot = rot_y(tilt_deg) @ rot_to_z(up)
     # the space the liquid reaches: the air inside the box that comes to the box's top face (within
-    # 0.05 mm: the kernel leaves zero-volume films where the pieces touch, which connect nothing)
+    # 0.05 mm; the films where the pieces touch are sealed by load_pieces)
     box = m3.Manifold.cube(list(hi - lo)).translate(list(lo))
     top_face = hi if up[2] > 0 else lo
     band = m3.Manifold.cube([hi[0] - lo[0], hi[1] - lo[1], 0.05]).translate([lo[0], lo[1], (top_face[2] - 0.05) if up[2] > 0 else lo[2]])

@@ -174,6 +174,10 @@ impl Solid {
     pub fn contains(&self, p: P3, above: f64) -> bool {
         self.0.ray_cast(v3(p), v3([p[0], p[1], above])).len() % 2 == 1
     }
+    /// Whether a point is inside (ray parity along `dir` for `len` mm: a ray that leaves the solid).
+    pub fn contains_along(&self, p: P3, dir: P3, len: f64) -> bool {
+        self.0.ray_cast(v3(p), v3(add(p, scale(dir, len)))).len() % 2 == 1
+    }
     /// Hits of the segment a→b with the surface, nearest first, as distances from a (mm).
     pub fn ray_hits(&self, a: P3, b: P3) -> Vec<f64> {
         let len = norm(sub(b, a));

@@ -229,18 +229,18 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
         if ov > 1e-6 {
             out.push(v(name, "each sensor dome must fit its cavity with clearance ≥ 0", format!("sensor[{i}]: dome overlaps the cover by {ov:.5} mm³")));
         }
-        if p.cover.profile != CoverProfile::FollowPad {
-            continue;
-        }
-        let hump = hump_mm(&l.shape, p.cover.thickness_mm, &a.cover, d.base, d.normal, d.r_base);
-        humps.push(hump);
-        #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN hump must fail the rule too
-        if !(hump <= MAX_HUMP_MM) {
-            out.push(v(
-                name,
-                "the cover's outer surface must not hump over a dome",
-                format!("sensor[{i}]: outer surface deviates {hump:.3} mm from the undisturbed offset (limit {MAX_HUMP_MM})"),
-            ));
+        // the hump rule is the follow_pad profile's (a uniform cover's window is held by its own rule)
+        if p.cover.profile == CoverProfile::FollowPad {
+            let hump = hump_mm(&l.shape, p.cover.thickness_mm, &a.cover, d.base, d.normal, d.r_base);
+            humps.push(hump);
+            #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN hump must fail the rule too
+            if !(hump <= MAX_HUMP_MM) {
+                out.push(v(
+                    name,
+                    "the cover's outer surface must not hump over a dome",
+                    format!("sensor[{i}]: outer surface deviates {hump:.3} mm from the undisturbed offset (limit {MAX_HUMP_MM})"),
+                ));
+            }
         }
     }
 

@@ -83,7 +83,7 @@ const ANCHOR_DEPTH_MM: f64 = 2.0;
 /// window is the hull of its disc and those landing points (so the blend hugs the pad whatever
 /// its shape beyond them).
 fn uniform_windows(outer: Solid, l: &Layout, t: f64, tol: f64) -> std::result::Result<Solid, String> {
-    let inside = |q: P3, n: P3| outer.ray_hits(q, crate::mesh::add(q, scale(n, 60.0))).len() % 2 == 1;
+    let inside = |q: P3, n: P3| outer.contains_along(q, n, 60.0);
     let mut cut = Vec::new();
     let mut blends = vec![outer.clone()];
     for d in &l.domes {
@@ -114,15 +114,8 @@ fn uniform_windows(outer: Solid, l: &Layout, t: f64, tol: f64) -> std::result::R
             }
             let step = 0.25;
             let first = (1..=(BLEND_MM / step) as usize).map(|i| i as f64 * step).find(|&x| inside(on_slope(radial, x, tan), n))?;
-            let (mut lo, mut hi) = (first - step, first);
-            for _ in 0..10 {
-                let mid = 0.5 * (lo + hi);
-                if inside(on_slope(radial, mid, tan), n) {
-                    hi = mid;
-                } else {
-                    lo = mid;
-                }
-            }
+            // the first point inside: one bisection step past the last one outside
+            let hi = crate::mesh::bisect(first - step, first, 10, |x| !inside(on_slope(radial, x, tan), n)) + step / 1024.0;
             inside(on_slope(radial, hi + LAND_PAST_MM, tan), n).then_some(hi)
         };
         // one slope for the whole window: the gentlest (45° first, steeper as over the finger's

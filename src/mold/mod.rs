@@ -104,8 +104,8 @@ pub struct Dome {
     pub tilt_deg: f64,
     /// Wall taper of the cavity (deg) = draft + tilt.
     pub taper_deg: f64,
-    /// Cover left over the dome (mm).
-    pub skin: f64,
+    /// A follow_pad cover's thinnest skin over the dome (mm); a uniform cover's is its thickness.
+    pub skin: Option<f64>,
 }
 
 pub fn layout(p: &MoldParams) -> std::result::Result<Layout, String> {
@@ -120,20 +120,11 @@ pub fn layout(p: &MoldParams) -> std::result::Result<Layout, String> {
         let taper = p.mold.draft_deg + tilt;
         let r_base = (s.dome_diameter_mm + p.cover.dome_clearance_mm) / 2.0;
         let r_top = r_base - s.dome_height_mm * taper.to_radians().tan();
-        // cover left over the cavity: the pad's surface curves away from the flat seat, so the
-        // skin is thinnest toward the cavity's rim, not at its centre
-        let (u, v, _) = mesh::frame(st.normal);
-        let mut skin = f64::INFINITY;
-        for ri in 0..=10 {
-            let r = r_base * ri as f64 / 10.0;
-            let height = if r <= r_top { s.dome_height_mm } else { s.dome_height_mm * (r_base - r) / (r_base - r_top).max(1e-9) };
-            for k in 0..24 {
-                let a = 2.0 * std::f64::consts::PI * k as f64 / 24.0;
-                let q = mesh::add(st.flat_center, mesh::add(mesh::scale(u, r * a.cos()), mesh::scale(v, r * a.sin())));
-                let depth = if shape.inside(q) { shape.exit_distance(q, st.normal, 20.0) } else { 0.0 };
-                skin = skin.min(p.cover.thickness_mm + depth - height);
-            }
-        }
+        let skin = match p.cover.profile {
+            // the window lies at the nominal thickness over the cavity's top; its slopes only add
+            crate::params::mold::CoverProfile::Uniform => None,
+            crate::params::mold::CoverProfile::FollowPad => Some(follow_pad_skin(&shape, &st, s, r_base, r_top, p.cover.thickness_mm)),
+        };
         domes.push(Dome {
             base: st.flat_center,
             normal: st.normal,
@@ -143,17 +134,31 @@ pub fn layout(p: &MoldParams) -> std::result::Result<Layout, String> {
             dome_r: s.dome_diameter_mm / 2.0,
             tilt_deg: tilt,
             taper_deg: taper,
-            skin: match p.cover.profile {
-                // the window lies at the nominal thickness over the cavity's top; its skirt only adds
-                crate::params::mold::CoverProfile::Uniform => p.cover.thickness_mm,
-                crate::params::mold::CoverProfile::FollowPad => skin,
-            },
+            skin,
         });
         seats.push(st);
     }
     let x_start = x_start0;
     let x_start_m = frame.to_mold([x_start, 0.0, -shape.pad_depth_at(x_start)])[0];
     Ok(Layout { z_parting: -p.mold.parting_below_midplane_mm, x_start, x_start_m, frame, shape, seats, domes })
+}
+
+/// A follow_pad cover left over a dome cavity: the pad's surface curves away from the flat seat, so
+/// the skin is thinnest toward the cavity's rim, not at its centre.
+fn follow_pad_skin(shape: &Shape, st: &fingertip::Seat, s: &crate::params::fingertip::Sensor, r_base: f64, r_top: f64, t: f64) -> f64 {
+    let (u, v, _) = mesh::frame(st.normal);
+    let mut skin = f64::INFINITY;
+    for ri in 0..=10 {
+        let r = r_base * ri as f64 / 10.0;
+        let height = if r <= r_top { s.dome_height_mm } else { s.dome_height_mm * (r_base - r) / (r_base - r_top).max(1e-9) };
+        for k in 0..24 {
+            let a = 2.0 * std::f64::consts::PI * k as f64 / 24.0;
+            let q = mesh::add(st.flat_center, mesh::add(mesh::scale(u, r * a.cos()), mesh::scale(v, r * a.sin())));
+            let depth = if shape.inside(q) { shape.exit_distance(q, st.normal, 20.0) } else { 0.0 };
+            skin = skin.min(t + depth - height);
+        }
+    }
+    skin
 }
 
 /// The pad point on the y ≥ 0 flank at design x whose `lift` along the normal (0: the pad itself,
@@ -266,7 +271,8 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
         push("cover.thickness_mm", t.to_string(), format!("thinner than printable detail ({} mm, mold.min_detail_mm): the mold's gap could not be printed", m.min_detail_mm));
     }
     for (i, (d, sp)) in l.domes.iter().zip(&p.fingertip.sensors).enumerate() {
-        if d.skin < m.min_detail_mm {
+        // (a uniform cover keeps the thickness over the dome: the rule above holds it)
+        if let Some(skin) = d.skin.filter(|&k| k < m.min_detail_mm) {
             push(
                 "cover.thickness_mm",
                 t.to_string(),
@@ -274,9 +280,9 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
                     "the dome cavity over sensor[{i}] (dome {} mm high, {:.2} mm across on its flat seat) leaves {:.2} mm of cover where it is thinnest, less than {} mm, so it breaks through: use at least {:.2} mm",
                     d.depth,
                     2.0 * d.r_base,
-                    d.skin,
+                    skin,
                     m.min_detail_mm,
-                    t - d.skin + m.min_detail_mm
+                    t - skin + m.min_detail_mm
                 ),
             );
         }

@@ -96,9 +96,9 @@ pub fn pockets(cavity: &Mesh, z_top: f64, exits: &[Exit]) -> Vec<Pocket> {
     let mut ceiling = vec![false; n];
     for t in &cavity.triangles {
         let q = t.map(|k| cavity.vertices[k as usize]);
-        let (a, b) = ([q[1][0] - q[0][0], q[1][1] - q[0][1]], [q[2][0] - q[0][0], q[2][1] - q[0][1]]);
-        // z of the (unnormalised) outward normal: the mesh is wound counter-clockwise seen from outside
-        if a[0] * b[1] - a[1] * b[0] > 1e-12 {
+        // the outward normal (the mesh is wound counter-clockwise seen from outside) looks up
+        let nrm = crate::mesh::cross(crate::mesh::sub(q[1], q[0]), crate::mesh::sub(q[2], q[0]));
+        if nrm[2] > 1e-9 * crate::mesh::norm(nrm) {
             for &k in t {
                 ceiling[k as usize] = true;
             }
