@@ -33,8 +33,8 @@ pub const MIN_SEPARATION_SIGMA: f64 = 3.0;
 /// A long hold or rest: this many times the recording's hold, and at least `LONG_MIN_S`.
 const LONG_FACTOR: f64 = 5.0;
 const LONG_MIN_S: f64 = 600.0;
-/// The seed of the advice's noise-free simulations (the signals do not depend on it but for the
-/// logging jitter, which is off).
+/// The seed of the advice's noise-free simulations: both names' twins draw the same touches (the
+/// slower ramp's durations), so their difference is the names' alone.
 const SEED: u64 = 16;
 
 /// The advice for every ambiguous finding, and a note for each one that could not be advised

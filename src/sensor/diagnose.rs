@@ -449,8 +449,12 @@ impl Steps for TrialSteps<'_> {
         self.tr.segs[q].phase == Phase::Unloading
     }
     fn after_peak(&self, q: usize) -> bool {
-        // a step of a later cycle: an earlier step of this trial reached the highest level
-        self.unloading(q) || self.tr.segs[..q].iter().any(|sg| self.hat.level_of(sg.load) >= self.top)
+        // a step of a later cycle: an earlier step of this trial reached its highest load (loads,
+        // not levels: a read-out whose level falls with the load has its top level at no load)
+        self.unloading(q) || {
+            let top = self.tr.segs.iter().map(|sg| sg.load).fold(f64::NEG_INFINITY, f64::max);
+            self.tr.segs[..q].iter().any(|sg| sg.load >= top)
+        }
     }
 }
 

@@ -166,7 +166,7 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
         html += "</table>\n";
     }
     if !advice_html.is_empty() || !d.advice_notes.is_empty() {
-        html += "<h2>What to record next</h2>\n<p>Both names were simulated with the recording's twin (the named term, or the alternative fitted in its place), noise-free, on the recording's own protocol and on protocol changes; the separation is the distance between the two predictions in the recording's noise σ, deflated by the residuals' autocorrelation.</p>\n";
+        html += "<h2>What to record next</h2>\n<p>Both names were simulated with the recording's twin (the named term, or the alternative fitted in its place), noise-free, on the recording's own protocol and on protocol changes; the separation is the paired z the held-out test between the two names is expected to reach (each unit's noise as this recording showed it between them, at least the white-noise floor), scaled to the z the recording itself reached.</p>\n";
         html += &advice_html;
         for n in &d.advice_notes {
             html += &format!("<p>{}</p>\n", esc(n));

@@ -65,7 +65,6 @@ impl Effect {
 
 pub const REST_EXPLANATION: &str = "each trial starts with a relaxation of its own that fades from its first sample (what the sensor brings from before the recording: how long it rested, what it carried): a nuisance of the set-up, fitted per trial and validated inside each trial, not physics of the sensor";
 
-/// The steps of one trial as the model terms see them (all in the response unit and seconds).
 /// e^(−x), and exactly 0 past x = 700 (e^−700 ≈ 1e−304): libm's exp takes a slow path for every
 /// result that underflows, and a term's decay is evaluated at every sample of an hours-long
 /// recording for every step before it.
@@ -78,6 +77,7 @@ pub fn decay(x: f64) -> f64 {
     }
 }
 
+/// The steps of one trial as the model terms see them (all in the response unit and seconds).
 pub trait Steps {
     /// Onset of step q.
     fn t0(&self, q: usize) -> f64;
