@@ -307,7 +307,8 @@ impl ProtocolParams {
         let base = num(&mut c, &t, "", "baseline_s", 10.0, 1.0, 1e5);
         let off = num(&mut c, &t, "", "logging_offset_s", 0.3, -5.0, 5.0);
         let jit = num(&mut c, &t, "", "logging_jitter_s", 0.15, 0.0, 5.0);
-        let touch = num(&mut c, &t, "", "touch_s", 0.0, 0.0, 5.0);
+        // a hand's touch (under a second) or an actuator's travel (6–9 s on the strip rig)
+        let touch = num(&mut c, &t, "", "touch_s", 0.0, 0.0, 30.0);
         let press = num(&mut c, &t, "", "press_fraction", 0.0, 0.0, 3.0);
         let top = num(&mut c, &t, "", "top_hold_s", hold.unwrap_or(20.0), 1.0, 1e5);
         let final_rest = num(&mut c, &t, "", "final_rest_s", base.unwrap_or(10.0), 1.0, 1e5);
@@ -319,6 +320,13 @@ impl ProtocolParams {
                 None
             }
         });
+        // each touch draws up to 1.5 × touch_s and must end inside the hold before it
+        if let (Some(d), Some(h), Some(b)) = (touch, hold, base) {
+            let shortest = h.min(b).min(top.unwrap_or(h)).min(final_rest.unwrap_or(b));
+            if 1.5 * d >= shortest {
+                c.push("touch_s", d, format!("a touch draws up to 1.5 × touch_s, which must stay under the shortest hold or rest ({shortest} s): use touch_s < {:.2}", shortest / 1.5));
+            }
+        }
         let v = (|| {
             Some(ProtocolParams {
                 weights_g: weights?,

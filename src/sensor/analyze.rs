@@ -195,7 +195,7 @@ fn prepare_with(recs: &[Recording], opts: &Options, extra: &[Vec<SpikeWindow>]) 
         let mut step0 = None;
         for (ri, steps) in steps_all.iter().enumerate() {
             if let Some(st) = steps.iter().find(|s| (s.phase, s.index) == key) {
-                if let Some(tr) = fit::trial_window(&series[ri], st, &recs[ri].source) {
+                if let Some(tr) = fit::trial_window(&series[ri], st, &recs[ri].source, opts.pre.ramp) {
                     trials.push(tr);
                     step0.get_or_insert_with(|| st.clone());
                 }
@@ -298,7 +298,9 @@ fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepRep
         };
         let paper = if opts.method != Method::Lsq { fit::paper(g, weight.max(1e-12), opts.paper_grid) } else { None };
         let hold_s = g.step.t_end - g.step.t_log;
-        let jumps: Vec<Option<f64>> = lsq.as_ref().map(|f| g.trials.iter().zip(&f.trials).map(|(tr, tp)| fit::jump_time(tr, tp, f)).collect()).unwrap_or_default();
+        // a load that ramps in is no jump, whatever the fitted onset (it stands inside the ramp)
+        let ramped = opts.pre.ramp.is_some_and(|r| r.duration_s > 0.0);
+        let jumps: Vec<Option<f64>> = lsq.as_ref().map(|f| g.trials.iter().zip(&f.trials).map(|(tr, tp)| fit::jump_time(tr, tp, f).filter(|_| !ramped)).collect()).unwrap_or_default();
         let dt = g.trials.iter().filter_map(fit::sample_interval).fold(f64::INFINITY, f64::min);
         let creep = lsq.as_ref().and_then(|f| tau_describes_creep(f, hold_s, &jumps, dt));
         steps.push(StepReport {

@@ -59,8 +59,18 @@ struct Seg {
     phase: Phase,
     /// When the change was logged (the load's ramp is placed relative to it).
     t_log: f64,
+    /// The load as applied: at once, or over a ramp ending at t0 (an actuator's travel).
+    input: LoadIn,
     /// With a simulator baseline: the simulated step (ΔV, τ).
     sim: Option<(f64, f64)>,
+}
+
+/// How a step's load is applied: over a ramp of `ramp_s` (0: at once), an S-curve or at a
+/// constant speed.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct LoadIn {
+    ramp_s: f64,
+    smooth: bool,
 }
 
 /// One trial's data as the model sees it.
@@ -262,10 +272,10 @@ impl Design {
         let base = self.n_trials;
         // level columns: loads[0] is the reference level (absorbed by o_i)
         let h = tr.half_span_s;
-        let active: Vec<usize> = (0..tr.segs.len()).filter(|&s| t + h >= cfg.t0_of(i, s, &tr.segs[s])).collect();
+        let active: Vec<usize> = (0..tr.segs.len()).filter(|&s| t + h >= cfg.t0_of(i, s, &tr.segs[s]) - tr.segs[s].input.ramp_s).collect();
         for &s in active.iter().filter(|_| !self.prior) {
             let sg = &tr.segs[s];
-            let u = block_rise(t, cfg.t0_of(i, s, sg), cfg.tau_of(i, s, sg), h);
+            let u = rise(t, cfg.t0_of(i, s, sg), cfg.tau_of(i, s, sg), h, sg.input);
             if let Some(c) = self.loads.iter().position(|&x| x == sg.load).filter(|&c| c > 0) {
                 out[base + c - 1] += u;
             }
@@ -289,7 +299,13 @@ impl Design {
                 }
                 let dv = hat.level_of(sg.load) - hat.level_of(sg.prev);
                 // −∂/∂ln τ of dv·rise: the coefficient is −Δ ln τ
-                if self.exact_shape {
+                if sg.input.ramp_s > 0.0 {
+                    // a ramped load's response: its derivatives by central differences
+                    out[col + sg.key] -= dv * ramp_dln_tau(t, sg.t0, sg.tau, h, sg.input);
+                    if let Some(q) = self.refit_onset.iter().position(|&k| k == (i, s)) {
+                        out[col + self.n_keys + q] = dv * ramp_dt0(t, sg.t0, sg.tau, h, sg.input);
+                    }
+                } else if self.exact_shape {
                     // −∂/∂ln τ and ∂/∂t0 of dv·rise: the coefficients are −Δ ln τ and the onset's
                     // shift (s)
                     out[col + sg.key] -= dv * rise_dln_tau(t, sg.t0, sg.tau, h);
@@ -337,7 +353,7 @@ impl Design {
             for &s in &active {
                 let sg = &tr.segs[s];
                 let (a, b) = (hat.level_of(sg.load) - steps.l0, hat.level_of(sg.prev) - steps.l0);
-                let u = block_rise(t, steps.t0(s), steps.tau(s), h);
+                let u = rise(t, steps.t0(s), steps.tau(s), h, sg.input);
                 out[col + GAIN_COLS * i] += (a - b) * u;
                 if top != 0.0 {
                     out[col + GAIN_COLS * i + 1] += (a * a - b * b) / top * u;
@@ -374,6 +390,55 @@ fn block_rise(t: f64, t0: f64, tau: f64, h: f64) -> f64 {
         let a = t + h - t0;
         (a - tau * (1.0 - (-a / tau).exp())) / (2.0 * h)
     }
+}
+
+/// The first-order response to the load as applied: a step at t0 ([`block_rise`]) or, with a
+/// ramp of `ramp` s ending at t0 (an actuator's travel), the ramp's response averaged over the
+/// filtered sample's span [t − h, t + h] (Simpson's rule: the ramp's response is smooth on it).
+fn rise(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
+    if ramp.ramp_s <= 0.0 {
+        return block_rise(t, t0, tau, h);
+    }
+    if h <= 0.0 {
+        return ramp_rise(t, t0, tau, ramp);
+    }
+    (ramp_rise(t - h, t0, tau, ramp) + 4.0 * ramp_rise(t, t0, tau, ramp) + ramp_rise(t + h, t0, tau, ramp)) / 6.0
+}
+
+/// The first-order response at t to a load ramping from t0 − ramp to t0. At a constant speed:
+/// (1/ramp)∫ (1 − e^(−(t − s)/τ)) ds over the part of the ramp before t. On an S-curve u(x) =
+/// 3x² − 2x³ (x = (t − start)/ramp): on the ramp, P(t) − P(start)·e^(−(t − start)/τ) with
+/// P = u − τu′ + τ²u″ − τ³u‴ (exact for a cubic); after it, a first-order approach to 1.
+fn ramp_rise(t: f64, end: f64, tau: f64, ramp: LoadIn) -> f64 {
+    let d = ramp.ramp_s;
+    let start = end - d;
+    if t <= start {
+        return 0.0;
+    }
+    if !ramp.smooth {
+        return (t.min(end) - start) / d - catalogue::relaxation::kernel(t, end, d, tau);
+    }
+    let (a, b) = (tau / d, (tau / d).powi(2));
+    let p = |x: f64| 3.0 * x * x - 2.0 * x.powi(3) - a * (6.0 * x - 6.0 * x * x) + b * (6.0 - 12.0 * x) + 12.0 * a * b;
+    let p0 = p(0.0);
+    let on = |t: f64| p((t - start) / d) - p0 * catalogue::decay((t - start) / tau);
+    if t <= end {
+        on(t)
+    } else {
+        1.0 + (on(end) - 1.0) * catalogue::decay((t - end) / tau)
+    }
+}
+
+/// ∂/∂ln τ of a ramped [`rise`] (central difference).
+fn ramp_dln_tau(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
+    let e = 1e-4f64;
+    (rise(t, t0, tau * e.exp(), h, ramp) - rise(t, t0, tau * (-e).exp(), h, ramp)) / (2.0 * e)
+}
+
+/// ∂/∂t0 of a ramped [`rise`] (central difference).
+fn ramp_dt0(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
+    let e = 1e-4;
+    (rise(t, t0 + e, tau, h, ramp) - rise(t, t0 - e, tau, h, ramp)) / (2.0 * e)
 }
 
 /// ∂/∂t0 of [`block_rise`].
@@ -478,7 +543,7 @@ fn clip_offset(i: usize, tr: &Trial, t: f64, cfg: &Config) -> f64 {
             let sg = &tr.segs[s];
             // as the design row: active from t + h ≥ t0, with the filtered-sample average of u
             if t + tr.half_span_s >= cfg.t0_of(i, s, sg) {
-                c * (1.0 - block_rise(t, cfg.t0_of(i, s, sg), cfg.tau_of(i, s, sg), tr.half_span_s))
+                c * (1.0 - rise(t, cfg.t0_of(i, s, sg), cfg.tau_of(i, s, sg), tr.half_span_s, sg.input))
             } else {
                 0.0
             }
@@ -972,6 +1037,10 @@ pub struct Baseline {
     pub rmse: f64,
     pub heldout_rmse: f64,
     pub bic: f64,
+    /// The load's ramp the first-order steps are driven by (an actuator's recordings: chosen
+    /// once per data set by the baseline's held-out RMSE); absent when the load changes at once.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub load_ramp: Option<super::preprocess::Ramp>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -1123,7 +1192,29 @@ fn sample_interval(tr: &Trial) -> f64 {
     (tr.t[n - 1] - tr.t[0]) / (n - 1) as f64
 }
 
+/// The ramp durations tried for one step, as shares of the data set's.
+const STEP_RAMP_SHARES: [f64; 12] = [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.15, 1.3, 1.5, 1.75, 2.0];
+
+/// One step's ramp duration (s): the share of the data set's `shared` whose first-order response,
+/// from the part-1 fit's level before it, change and τ (`fit`), best matches the samples from
+/// before the longest such ramp to a few τ after its end `end` (least squares); at most 90 % of
+/// the time since the previous ramp's end.
+fn step_ramp(series: &super::preprocess::Series, end: f64, (v0, k, tau): (f64, f64, f64), r: super::preprocess::Ramp, since_prev: f64) -> f64 {
+    let shared = r.duration_s;
+    let longest = (STEP_RAMP_SHARES[STEP_RAMP_SHARES.len() - 1] * shared).min(0.9 * since_prev);
+    let idx: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j] && series.t[j] >= end - longest - 0.5 && series.t[j] <= end + (3.0 * tau).clamp(0.5, 10.0)).collect();
+    let mut best = (f64::INFINITY, shared.min(longest));
+    for d in STEP_RAMP_SHARES.iter().map(|a| a * shared).filter(|&d| d <= longest) {
+        let sse: f64 = idx.iter().map(|&j| (series.v[j] - v0 - k * ramp_rise(series.t[j], end, tau, LoadIn { ramp_s: d, smooth: r.smooth })).powi(2)).sum();
+        if sse < best.0 {
+            best = (sse, d);
+        }
+    }
+    best.1
+}
+
 fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Options) -> Vec<Trial> {
+    let ramp = opts.pre.ramp.filter(|r| r.duration_s > 0.0);
     let mut out = Vec::new();
     for (ri, rec) in recs.iter().enumerate() {
         let block = analyze::filter_block(rec, opts);
@@ -1136,13 +1227,21 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Opti
             let q = f.trials.iter().position(|tp| tp.recording == rec.source);
             let mut t0 = q.map(|q| f.trials[q].t0).unwrap_or(st.t_log);
             let mut tau = f.tau_s;
+            // a ramped load: the step's onset is the ramp's end, where the data set's ramp puts it;
+            // its duration is the step's own (an actuator's travel differs from step to step)
+            let mut input = LoadIn::default();
+            if let (Some(r), Some(q)) = (ramp, q) {
+                t0 = st.t_log + r.end_after_log_s;
+                let prev_end = prep.steps[ri].iter().filter(|p| p.t_log < st.t_log).map(|p| p.t_log + r.end_after_log_s).fold(series.t.first().copied().unwrap_or(0.0), f64::max);
+                input = LoadIn { ramp_s: step_ramp(series, t0, (f.trials[q].v0, f.k, f.tau_s), r, t0 - prev_end), smooth: r.smooth };
+            }
             // a jump within one sample (fit::jump_time) is modelled as one; the creep or
             // relaxation after it is the diagnosis's
             if let Some(tj) = q.and_then(|q| sr.jumps.get(q).copied().flatten()) {
                 t0 = tj;
                 tau = super::fit::JUMP_TAU_SHARE / rec.sample_rate_hz();
             }
-            segs.push(Seg { key, t0, load: st.after, prev: st.before, tau, phase: st.phase, t_log: st.t_log, sim: None });
+            segs.push(Seg { key, t0, load: st.after, prev: st.before, tau, phase: st.phase, t_log: st.t_log, input, sim: None });
         }
         let keep: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j]).collect();
         out.push(Trial {
@@ -1588,6 +1687,8 @@ enum Outcome {
 /// data as given, and the windows are kept as located failures of the baseline, each saying why
 /// it was not excluded.
 fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool) -> Option<Diagnosis> {
+    let with_ramp = if sim.is_none() { with_ramp(recs, opts) } else { opts.clone() };
+    let opts = &with_ramp;
     let (windows, before, after, unit) = match run(recs, opts, sim, refit_always, false)? {
         Outcome::Done(d) => return Some(*d),
         Outcome::SpikesRejected { windows, before, after, unit } => (windows, before, after, unit),
@@ -1610,6 +1711,56 @@ fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         statistic: format!("{}; {why}", w.statistic),
     }));
     Some(*again)
+}
+
+/// The ramp durations (s) tried for an actuator's load, up to half the shortest hold.
+const RAMP_GRID_S: [f64; 7] = [1.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0];
+/// A ramp replaces the load changing at once when it lowers the baseline's held-out RMSE by this.
+const MIN_RAMP_GAIN: f64 = 0.02;
+
+/// An actuator's recordings (`--actuator`, or `loading=actuator` in their metadata): the load's
+/// ramp, fitted once per data set (issue 15, item 1). The actuator travels for seconds around the
+/// logged change; the baseline's first-order steps are driven by a linear ramp of a duration from
+/// [`RAMP_GRID_S`] ending at the logged change, then the end moved by ±0.5 and ±1 s, each scored by
+/// the baseline's own cross-validation (its held-out RMSE over the units). Loads placed by hand,
+/// and a ramp that gains under [`MIN_RAMP_GAIN`], keep the step at once.
+fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
+    use rayon::prelude::*;
+    use super::preprocess::Ramp;
+    let actuator = !opts.pre.handling || recs.iter().any(|r| r.meta.all.get("loading").is_some_and(|l| l.trim() == "actuator"));
+    if !actuator || opts.pre.ramp.is_some() {
+        return opts.clone();
+    }
+    let score = |r: Option<Ramp>| -> f64 {
+        let mut o = opts.clone();
+        o.pre.ramp = r;
+        match run(recs, &o, None, false, true) {
+            Some(Outcome::Baseline(s)) if s.heldout_rmse.is_finite() => s.heldout_rmse,
+            _ => f64::INFINITY,
+        }
+    };
+    // the candidates scored in parallel, the best taken in their order (the same on any machine)
+    let best_of = |cands: Vec<Option<Ramp>>| -> (f64, Option<Ramp>) {
+        let scores: Vec<f64> = cands.par_iter().map(|&r| score(r)).collect();
+        cands.into_iter().zip(scores).fold((f64::INFINITY, None), |b, (r, s)| if s < b.0 { (s, r) } else { b })
+    };
+    let shortest = recs.iter().flat_map(|r| super::preprocess::segment(r, &opts.pre).0).map(|s| s.t_end - s.t_log).fold(f64::INFINITY, f64::min);
+    let mut cands = vec![None];
+    for smooth in [false, true] {
+        cands.extend(RAMP_GRID_S.into_iter().filter(|&d| d <= 0.5 * shortest).map(|d| Some(Ramp { duration_s: d, end_after_log_s: 0.0, smooth })));
+    }
+    let scores: Vec<f64> = cands.par_iter().map(|&r| score(r)).collect();
+    let at_once = scores[0];
+    let mut best = cands.into_iter().zip(scores).skip(1).fold((f64::INFINITY, None), |b, (r, s)| if s < b.0 { (s, r) } else { b });
+    if let (_, Some(r0)) = best {
+        let (s, r) = best_of([-1.0, -0.5, 0.5, 1.0].into_iter().map(|e| Some(Ramp { end_after_log_s: e, ..r0 })).collect());
+        if s < best.0 {
+            best = (s, r);
+        }
+    }
+    let mut o = opts.clone();
+    o.pre.ramp = best.1.filter(|_| best.0 < (1.0 - MIN_RAMP_GAIN) * at_once);
+    o
 }
 
 /// Where a term's signature shows in the residuals of the model before it entered (the whiteness
@@ -2046,6 +2197,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
             rmse: base.rmse,
             heldout_rmse: base.heldout_rmse,
             bic: base.bic,
+            load_ramp: opts.pre.ramp.filter(|r| r.duration_s > 0.0 && sim.is_none()),
         },
         final_: Final {
             effects: final_names,

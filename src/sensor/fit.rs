@@ -5,7 +5,7 @@
 //! are linear given τ; τ by a log-spaced scan, golden-section and Newton refinement), [`Termination`]
 //! says why it stopped, and [`StepFit`] is the report the tables, plots and diagnosis read.
 
-use super::preprocess::{median, Series, Step};
+use super::preprocess::{median, Ramp, Series, Step};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -38,7 +38,10 @@ pub struct StepData {
 }
 
 /// Cuts one trial's window for a step out of a preprocessed series.
-pub fn trial_window(series: &Series, step: &Step, recording: &str) -> Option<Trial> {
+pub fn trial_window(series: &Series, step: &Step, recording: &str, ramp: Option<Ramp>) -> Option<Trial> {
+    if let Some(r) = ramp.filter(|r| r.duration_s > 0.0) {
+        return ramp_window(series, step, recording, r);
+    }
     let hold_prev = 6.0f64;
     let search = 2.0f64.min(0.4 * (step.t_end - step.t_log));
     let base_len = 2.0f64;
@@ -75,6 +78,27 @@ pub fn trial_window(series: &Series, step: &Step, recording: &str) -> Option<Tri
     let on = on.unwrap_or_else(|| t.iter().position(|&x| x >= step.t_log).unwrap_or(0));
     let (pre_end, post) = (on.saturating_sub(2), on + 1);
     if pre_end < 2 || t.len() < post + 8 {
+        return None;
+    }
+    let uniform_dt = uniform(&t[post..]);
+    Some(Trial { recording: recording.to_string(), t_on: t[post], t, v, t_log: step.t_log, post, pre_end, uniform_dt, t_end: step.t_end })
+}
+
+/// A trial's window for a step whose load ramps in over `r` (an actuator's travel): the pre-step
+/// level from the 2 s before the ramp starts, the samples on the ramp left out, the fit from the
+/// ramp's end (where the response is a first-order decay toward the new level again, its
+/// amplitude set by the ramp) to the next ramp's start.
+fn ramp_window(series: &Series, step: &Step, recording: &str, r: Ramp) -> Option<Trial> {
+    let end = step.t_log + r.end_after_log_s;
+    let start = end - r.duration_s;
+    let gap = 0.2f64;
+    let t_stop = step.t_end + r.end_after_log_s - r.duration_s - gap;
+    let idx: Vec<usize> = (0..series.t.len()).filter(|&i| series.ok[i] && series.t[i] >= start - gap - 2.0 && series.t[i] <= t_stop).collect();
+    let t: Vec<f64> = idx.iter().map(|&i| series.t[i]).collect();
+    let v: Vec<f64> = idx.iter().map(|&i| series.v[i]).collect();
+    let pre_end = t.iter().position(|&x| x >= start - gap).unwrap_or(t.len());
+    let post = t.iter().position(|&x| x >= end)?;
+    if pre_end < 3 || t.len() < post + 8 {
         return None;
     }
     let uniform_dt = uniform(&t[post..]);

@@ -65,11 +65,25 @@ pub struct Options {
     /// spikes and are excluded. False for loads applied by a machine (`--actuator`, or a recording
     /// whose metadata says `loading=actuator`): there is nothing to exclude.
     pub handling: bool,
+    /// The load as an actuator applies it: a ramp of this duration (s) ending this long (s) after
+    /// each logged change, shared by the data set (`diagnose` chooses it by cross-validation).
+    /// None: the load changes at once, around an onset fitted near the logged change.
+    pub ramp: Option<Ramp>,
+}
+
+/// A load ramp: its duration and where it ends relative to the logged change (s).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Ramp {
+    pub duration_s: f64,
+    pub end_after_log_s: f64,
+    /// The load's course over the ramp: an S-curve (3x² − 2x³: the speed rises and falls
+    /// smoothly), or a constant speed (false).
+    pub smooth: bool,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Options { mean_filter: true, block: 10, min_step_s: 1.0, spike_sigma: 8.0, max_spike_s: 1.0, handling: true }
+        Options { mean_filter: true, block: 10, min_step_s: 1.0, spike_sigma: 8.0, max_spike_s: 1.0, handling: true, ramp: None }
     }
 }
 
