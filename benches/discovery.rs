@@ -113,7 +113,10 @@ fn run_with_floor(s: &SensorParams, s0: &SensorParams, p: &ProtocolParams, seed:
 fn run(s: &SensorParams, p: &ProtocolParams, seed: u64) -> Outcome {
     let sims: Vec<_> = (0..3).map(|k| simulate(s, p, 20.0, None, seed + k)).collect();
     let recs: Vec<_> = sims.iter().map(|x| x.0.clone()).collect();
-    let d = diagnose(&recs, &Default::default()).expect("diagnosis");
+    // a touch of seconds without a press is an actuator's travel: diagnosed as `--actuator`
+    let mut opts = tipforge::sensor::analyze::Options::default();
+    opts.pre.handling = !(p.touch_s >= 3.0 && p.press_fraction == 0.0);
+    let d = diagnose(&recs, &opts).expect("diagnosis");
     // the truth is the sensor's noise-free response: without the handling artifact (spikes are
     // placing weights by hand, not sensor physics); the same seeds, so everything else is equal
     let mut s_true = s.clone();
@@ -273,6 +276,18 @@ fn main() {
         ("drift as a 60 s warm-up", Box::new(|s, _| s.effects.drift_warmup_tau_s = 60.0)),
         // creep superposed over the load history: it carries over from step to step (item 3)
         ("creep superposed over the load history", Box::new(|s, _| s.effects.creep_superposed = true)),
+        // an actuator's travel (issue 15, item 1): the load ramps in over 3.75–11.25 s (an S-curve)
+        // ending where it lands, logged 0.3 s later; holds of 40 s, rests of 30 s
+        (
+            "actuator ramps of 7.5 s (0.5-1.5 x), holds 40 s",
+            Box::new(|_, p| {
+                p.touch_s = 7.5;
+                p.hold_s = 40.0;
+                p.top_hold_s = 40.0;
+                p.baseline_s = 30.0;
+                p.final_rest_s = 30.0
+            }),
+        ),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {

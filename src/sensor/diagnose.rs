@@ -1203,14 +1203,21 @@ fn step_ramp(series: &super::preprocess::Series, end: f64, (v0, k, tau): (f64, f
     let shared = r.duration_s;
     let longest = (STEP_RAMP_SHARES[STEP_RAMP_SHARES.len() - 1] * shared).min(0.9 * since_prev);
     let idx: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j] && series.t[j] >= end - longest - 0.5 && series.t[j] <= end + (3.0 * tau).clamp(0.5, 10.0)).collect();
-    let mut best = (f64::INFINITY, shared.min(longest));
-    for d in STEP_RAMP_SHARES.iter().map(|a| a * shared).filter(|&d| d <= longest) {
-        let sse: f64 = idx.iter().map(|&j| (series.v[j] - v0 - k * ramp_rise(series.t[j], end, tau, LoadIn { ramp_s: d, smooth: r.smooth })).powi(2)).sum();
-        if sse < best.0 {
-            best = (sse, d);
+    let sse = |d: f64| -> f64 { idx.iter().map(|&j| (series.v[j] - v0 - k * ramp_rise(series.t[j], end, tau, LoadIn { ramp_s: d, smooth: r.smooth })).powi(2)).sum() };
+    let grid: Vec<f64> = STEP_RAMP_SHARES.iter().map(|a| a * shared).filter(|&d| d <= longest).collect();
+    let Some(b) = (0..grid.len()).min_by(|&a, &b| sse(grid[a]).total_cmp(&sse(grid[b]))) else { return shared.min(longest) };
+    // refined between the grid's neighbours by golden section
+    let (mut lo, mut hi) = (grid[b.saturating_sub(1)], grid[(b + 1).min(grid.len() - 1)]);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..14 {
+        let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+        if sse(m1) < sse(m2) {
+            hi = m2;
+        } else {
+            lo = m1;
         }
     }
-    best.1
+    0.5 * (lo + hi)
 }
 
 fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Options) -> Vec<Trial> {
@@ -2301,6 +2308,36 @@ mod tests {
         assert!(paired_z(&before, &worse) < 0.0);
         let tiny: Vec<f64> = before.iter().map(|b| b * 0.99).collect();
         assert_eq!(paired_z(&before, &tiny), diff_z(&before, &tiny));
+    }
+
+    /// A ramped load's response is the first-order lag of the ramp (an Euler integration of
+    /// τ·y′ = u − y at 1 µs), at a constant speed and on an S-curve, before, on and after the
+    /// ramp; a ramp of zero is the step; and the two shapes differ (the test can fail).
+    #[test]
+    fn a_ramped_rise_is_the_lag_of_the_ramp() {
+        let (end, tau, d) = (10.0, 0.7, 3.0);
+        for smooth in [false, true] {
+            let input = LoadIn { ramp_s: d, smooth };
+            let u = |t: f64| {
+                let x = ((t - (end - d)) / d).clamp(0.0, 1.0);
+                if smooth {
+                    x * x * (3.0 - 2.0 * x)
+                } else {
+                    x
+                }
+            };
+            let (mut y, mut t, h) = (0.0, end - d - 0.5, 1e-6);
+            for probe in [6.9, 7.5, 8.8, 10.0, 10.4, 13.0] {
+                while t < probe {
+                    y += h * (u(t) - y) / tau;
+                    t += h;
+                }
+                assert!((ramp_rise(t, end, tau, input) - y).abs() < 1e-5, "smooth {smooth} t {t}: {} vs {y}", ramp_rise(t, end, tau, input));
+            }
+        }
+        assert_eq!(rise(11.0, end, tau, 0.0, LoadIn::default()), block_rise(11.0, end, tau, 0.0));
+        let (a, b) = (ramp_rise(8.0, end, tau, LoadIn { ramp_s: d, smooth: false }), ramp_rise(8.0, end, tau, LoadIn { ramp_s: d, smooth: true }));
+        assert!((a - b).abs() > 0.05, "{a} {b}");
     }
 
     /// The Gauss–Newton columns are the derivatives of the model they correct: the filtered
