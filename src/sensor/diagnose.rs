@@ -12,6 +12,7 @@
 //! BIC by at least `MIN_DBIC`.
 
 mod alternatives;
+mod input;
 mod normal;
 mod nuisance;
 mod refit;
@@ -22,6 +23,7 @@ use super::analyze::{self, Options, Prepared, Report};
 use super::preprocess::Phase;
 use super::recording::Recording;
 use nalgebra::{DMatrix, DVector};
+use input::*;
 use normal::*;
 pub use alternatives::{Alternative, Z_SEPARATE};
 pub use nuisance::NuisanceTerm;
@@ -63,14 +65,6 @@ struct Seg {
     input: LoadIn,
     /// With a simulator baseline: the simulated step (ΔV, τ).
     sim: Option<(f64, f64)>,
-}
-
-/// How a step's load is applied: over a ramp of `ramp_s` (0: at once), an S-curve or at a
-/// constant speed.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct LoadIn {
-    ramp_s: f64,
-    smooth: bool,
 }
 
 /// One trial's data as the model sees it.
@@ -390,55 +384,6 @@ fn block_rise(t: f64, t0: f64, tau: f64, h: f64) -> f64 {
         let a = t + h - t0;
         (a - tau * (1.0 - (-a / tau).exp())) / (2.0 * h)
     }
-}
-
-/// The first-order response to the load as applied: a step at t0 ([`block_rise`]) or, with a
-/// ramp of `ramp` s ending at t0 (an actuator's travel), the ramp's response averaged over the
-/// filtered sample's span [t − h, t + h] (Simpson's rule: the ramp's response is smooth on it).
-fn rise(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
-    if ramp.ramp_s <= 0.0 {
-        return block_rise(t, t0, tau, h);
-    }
-    if h <= 0.0 {
-        return ramp_rise(t, t0, tau, ramp);
-    }
-    (ramp_rise(t - h, t0, tau, ramp) + 4.0 * ramp_rise(t, t0, tau, ramp) + ramp_rise(t + h, t0, tau, ramp)) / 6.0
-}
-
-/// The first-order response at t to a load ramping from t0 − ramp to t0. At a constant speed:
-/// (1/ramp)∫ (1 − e^(−(t − s)/τ)) ds over the part of the ramp before t. On an S-curve u(x) =
-/// 3x² − 2x³ (x = (t − start)/ramp): on the ramp, P(t) − P(start)·e^(−(t − start)/τ) with
-/// P = u − τu′ + τ²u″ − τ³u‴ (exact for a cubic); after it, a first-order approach to 1.
-fn ramp_rise(t: f64, end: f64, tau: f64, ramp: LoadIn) -> f64 {
-    let d = ramp.ramp_s;
-    let start = end - d;
-    if t <= start {
-        return 0.0;
-    }
-    if !ramp.smooth {
-        return (t.min(end) - start) / d - catalogue::relaxation::kernel(t, end, d, tau);
-    }
-    let (a, b) = (tau / d, (tau / d).powi(2));
-    let p = |x: f64| 3.0 * x * x - 2.0 * x.powi(3) - a * (6.0 * x - 6.0 * x * x) + b * (6.0 - 12.0 * x) + 12.0 * a * b;
-    let p0 = p(0.0);
-    let on = |t: f64| p((t - start) / d) - p0 * catalogue::decay((t - start) / tau);
-    if t <= end {
-        on(t)
-    } else {
-        1.0 + (on(end) - 1.0) * catalogue::decay((t - end) / tau)
-    }
-}
-
-/// ∂/∂ln τ of a ramped [`rise`] (central difference).
-fn ramp_dln_tau(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
-    let e = 1e-4f64;
-    (rise(t, t0, tau * e.exp(), h, ramp) - rise(t, t0, tau * (-e).exp(), h, ramp)) / (2.0 * e)
-}
-
-/// ∂/∂t0 of a ramped [`rise`] (central difference).
-fn ramp_dt0(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
-    let e = 1e-4;
-    (rise(t, t0 + e, tau, h, ramp) - rise(t, t0 - e, tau, h, ramp)) / (2.0 * e)
 }
 
 /// ∂/∂t0 of [`block_rise`].
@@ -1192,34 +1137,6 @@ fn sample_interval(tr: &Trial) -> f64 {
     (tr.t[n - 1] - tr.t[0]) / (n - 1) as f64
 }
 
-/// The ramp durations tried for one step, as shares of the data set's.
-const STEP_RAMP_SHARES: [f64; 12] = [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.15, 1.3, 1.5, 1.75, 2.0];
-
-/// One step's ramp duration (s): the share of the data set's `shared` whose first-order response,
-/// from the part-1 fit's level before it, change and τ (`fit`), best matches the samples from
-/// before the longest such ramp to a few τ after its end `end` (least squares); at most 90 % of
-/// the time since the previous ramp's end.
-fn step_ramp(series: &super::preprocess::Series, end: f64, (v0, k, tau): (f64, f64, f64), r: super::preprocess::Ramp, since_prev: f64) -> f64 {
-    let shared = r.duration_s;
-    let longest = (STEP_RAMP_SHARES[STEP_RAMP_SHARES.len() - 1] * shared).min(0.9 * since_prev);
-    let idx: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j] && series.t[j] >= end - longest - 0.5 && series.t[j] <= end + (3.0 * tau).clamp(0.5, 10.0)).collect();
-    let sse = |d: f64| -> f64 { idx.iter().map(|&j| (series.v[j] - v0 - k * ramp_rise(series.t[j], end, tau, LoadIn { ramp_s: d, smooth: r.smooth })).powi(2)).sum() };
-    let grid: Vec<f64> = STEP_RAMP_SHARES.iter().map(|a| a * shared).filter(|&d| d <= longest).collect();
-    let Some(b) = (0..grid.len()).min_by(|&a, &b| sse(grid[a]).total_cmp(&sse(grid[b]))) else { return shared.min(longest) };
-    // refined between the grid's neighbours by golden section
-    let (mut lo, mut hi) = (grid[b.saturating_sub(1)], grid[(b + 1).min(grid.len() - 1)]);
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    for _ in 0..14 {
-        let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        if sse(m1) < sse(m2) {
-            hi = m2;
-        } else {
-            lo = m1;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
 fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Options) -> Vec<Trial> {
     let ramp = opts.pre.ramp.filter(|r| r.duration_s > 0.0);
     let mut out = Vec::new();
@@ -1240,7 +1157,7 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Opti
             if let (Some(r), Some(q)) = (ramp, q) {
                 t0 = st.t_log + r.end_after_log_s;
                 let prev_end = prep.steps[ri].iter().filter(|p| p.t_log < st.t_log).map(|p| p.t_log + r.end_after_log_s).fold(series.t.first().copied().unwrap_or(0.0), f64::max);
-                input = LoadIn { ramp_s: step_ramp(series, t0, (f.trials[q].v0, f.k, f.tau_s), r, t0 - prev_end), smooth: r.smooth };
+                input = step_ramp(series, t0, (f.trials[q].v0, f.k, f.tau_s), r, t0 - prev_end);
             }
             // a jump within one sample (fit::jump_time) is modelled as one; the creep or
             // relaxation after it is the diagnosis's
@@ -1718,56 +1635,6 @@ fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
         statistic: format!("{}; {why}", w.statistic),
     }));
     Some(*again)
-}
-
-/// The ramp durations (s) tried for an actuator's load, up to half the shortest hold.
-const RAMP_GRID_S: [f64; 7] = [1.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0];
-/// A ramp replaces the load changing at once when it lowers the baseline's held-out RMSE by this.
-const MIN_RAMP_GAIN: f64 = 0.02;
-
-/// An actuator's recordings (`--actuator`, or `loading=actuator` in their metadata): the load's
-/// ramp, fitted once per data set (issue 15, item 1). The actuator travels for seconds around the
-/// logged change; the baseline's first-order steps are driven by a linear ramp of a duration from
-/// [`RAMP_GRID_S`] ending at the logged change, then the end moved by ±0.5 and ±1 s, each scored by
-/// the baseline's own cross-validation (its held-out RMSE over the units). Loads placed by hand,
-/// and a ramp that gains under [`MIN_RAMP_GAIN`], keep the step at once.
-fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
-    use rayon::prelude::*;
-    use super::preprocess::Ramp;
-    let actuator = !opts.pre.handling || recs.iter().any(|r| r.meta.all.get("loading").is_some_and(|l| l.trim() == "actuator"));
-    if !actuator || opts.pre.ramp.is_some() {
-        return opts.clone();
-    }
-    let score = |r: Option<Ramp>| -> f64 {
-        let mut o = opts.clone();
-        o.pre.ramp = r;
-        match run(recs, &o, None, false, true) {
-            Some(Outcome::Baseline(s)) if s.heldout_rmse.is_finite() => s.heldout_rmse,
-            _ => f64::INFINITY,
-        }
-    };
-    // the candidates scored in parallel, the best taken in their order (the same on any machine)
-    let best_of = |cands: Vec<Option<Ramp>>| -> (f64, Option<Ramp>) {
-        let scores: Vec<f64> = cands.par_iter().map(|&r| score(r)).collect();
-        cands.into_iter().zip(scores).fold((f64::INFINITY, None), |b, (r, s)| if s < b.0 { (s, r) } else { b })
-    };
-    let shortest = recs.iter().flat_map(|r| super::preprocess::segment(r, &opts.pre).0).map(|s| s.t_end - s.t_log).fold(f64::INFINITY, f64::min);
-    let mut cands = vec![None];
-    for smooth in [false, true] {
-        cands.extend(RAMP_GRID_S.into_iter().filter(|&d| d <= 0.5 * shortest).map(|d| Some(Ramp { duration_s: d, end_after_log_s: 0.0, smooth })));
-    }
-    let scores: Vec<f64> = cands.par_iter().map(|&r| score(r)).collect();
-    let at_once = scores[0];
-    let mut best = cands.into_iter().zip(scores).skip(1).fold((f64::INFINITY, None), |b, (r, s)| if s < b.0 { (s, r) } else { b });
-    if let (_, Some(r0)) = best {
-        let (s, r) = best_of([-1.0, -0.5, 0.5, 1.0].into_iter().map(|e| Some(Ramp { end_after_log_s: e, ..r0 })).collect());
-        if s < best.0 {
-            best = (s, r);
-        }
-    }
-    let mut o = opts.clone();
-    o.pre.ramp = best.1.filter(|_| best.0 < (1.0 - MIN_RAMP_GAIN) * at_once);
-    o
 }
 
 /// Where a term's signature shows in the residuals of the model before it entered (the whiteness
@@ -2308,36 +2175,6 @@ mod tests {
         assert!(paired_z(&before, &worse) < 0.0);
         let tiny: Vec<f64> = before.iter().map(|b| b * 0.99).collect();
         assert_eq!(paired_z(&before, &tiny), diff_z(&before, &tiny));
-    }
-
-    /// A ramped load's response is the first-order lag of the ramp (an Euler integration of
-    /// τ·y′ = u − y at 1 µs), at a constant speed and on an S-curve, before, on and after the
-    /// ramp; a ramp of zero is the step; and the two shapes differ (the test can fail).
-    #[test]
-    fn a_ramped_rise_is_the_lag_of_the_ramp() {
-        let (end, tau, d) = (10.0, 0.7, 3.0);
-        for smooth in [false, true] {
-            let input = LoadIn { ramp_s: d, smooth };
-            let u = |t: f64| {
-                let x = ((t - (end - d)) / d).clamp(0.0, 1.0);
-                if smooth {
-                    x * x * (3.0 - 2.0 * x)
-                } else {
-                    x
-                }
-            };
-            let (mut y, mut t, h) = (0.0, end - d - 0.5, 1e-6);
-            for probe in [6.9, 7.5, 8.8, 10.0, 10.4, 13.0] {
-                while t < probe {
-                    y += h * (u(t) - y) / tau;
-                    t += h;
-                }
-                assert!((ramp_rise(t, end, tau, input) - y).abs() < 1e-5, "smooth {smooth} t {t}: {} vs {y}", ramp_rise(t, end, tau, input));
-            }
-        }
-        assert_eq!(rise(11.0, end, tau, 0.0, LoadIn::default()), block_rise(11.0, end, tau, 0.0));
-        let (a, b) = (ramp_rise(8.0, end, tau, LoadIn { ramp_s: d, smooth: false }), ramp_rise(8.0, end, tau, LoadIn { ramp_s: d, smooth: true }));
-        assert!((a - b).abs() > 0.05, "{a} {b}");
     }
 
     /// The Gauss–Newton columns are the derivatives of the model they correct: the filtered

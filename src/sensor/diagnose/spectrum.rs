@@ -18,8 +18,10 @@ pub(super) fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx
         }
     }
     for (q, sg) in tr.segs.iter().enumerate() {
-        let end = sg.t_log + rx.end_s;
-        if t <= end - rx.ramp_s {
+        // the load as the baseline applies it (an actuator's ramps), else the spectrum's own ramp
+        let ramped = sg.input.ramp_s > 0.0;
+        let (end, ramp_s) = if ramped { (sg.t0, sg.input.ramp_s) } else { (sg.t_log + rx.end_s, rx.ramp_s) };
+        if t <= end - ramp_s {
             break;
         }
         let dv = steps.dv(q);
@@ -30,7 +32,7 @@ pub(super) fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx
             out[own] += dv * (-since / steps.tau(q)).exp();
         }
         for (j, &tau) in rx.taus.iter().enumerate() {
-            out[set + j] += dv * catalogue::relaxation::kernel(t, end, rx.ramp_s, tau);
+            out[set + j] += dv * if ramped { ramp_kernel(t, end, tau, sg.input) } else { catalogue::relaxation::kernel(t, end, ramp_s, tau) };
         }
     }
 }
@@ -124,7 +126,8 @@ pub(super) fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score
     }
     // then the ramp refined around the pick: half a grid step either way in duration and end
     let (mut c, mut best_cv) = pick?;
-    if let Some(rx) = c.relax.clone() {
+    let ramped = trials.iter().any(|tr| tr.segs.iter().any(|s| s.input.ramp_s > 0.0));
+    if let Some(rx) = c.relax.clone().filter(|_| !ramped) {
         let (dr, de) = if actuator { (1.0, 0.5) } else { (0.15, 0.15) };
         for (ramp_s, end_s) in [(rx.ramp_s - dr, rx.end_s), (rx.ramp_s + dr, rx.end_s), (rx.ramp_s, rx.end_s - de), (rx.ramp_s, rx.end_s + de)] {
             if ramp_s < 0.0 {
@@ -222,7 +225,11 @@ pub(super) fn relax_candidates(trials: &[Trial], actuator: bool) -> Vec<Relax> {
     let half = trials.iter().map(|tr| tr.half_span_s).fold(0.0, f64::max);
     let span = trials.iter().map(|tr| tr.t.last().copied().unwrap_or(0.0) - tr.t.first().copied().unwrap_or(0.0)).fold(0.0, f64::max);
     let taus = catalogue::relaxation::grid((2.0 * dt).max(2.0 * half).max(0.1), 0.5 * span);
-    let (ramps, ends): (&[f64], &[f64]) = if actuator { (&[0.0, 2.0, 4.0, 6.0, 8.0], &[-2.0, -1.0, 0.0]) } else { (&[0.0, 0.3, 0.6], &[-0.3, 0.0, 0.3]) };
+    // steps the baseline drives by their ramps drive the kernels by the same (one shape)
+    let ramped = trials.iter().any(|tr| tr.segs.iter().any(|s| s.input.ramp_s > 0.0));
+    let (ramps, ends): (&[f64], &[f64]) = if ramped {
+        (&[0.0], &[0.0])
+    } else if actuator { (&[0.0, 2.0, 4.0, 6.0, 8.0], &[-2.0, -1.0, 0.0]) } else { (&[0.0, 0.3, 0.6], &[-0.3, 0.0, 0.3]) };
     let shapes = ramps.iter().flat_map(|&ramp_s| ends.iter().map(move |&end_s| (ramp_s, end_s)));
     // a recording scored in forward blocks has one change of a kind per hold: a set per kind would
     // be estimated from the hold it forecasts, so loading and unloading share one
