@@ -301,6 +301,12 @@ fn main() {
         let topv = sv.v_eq((pv.weights_g.iter().sum::<f64>() + 20.0) / 1000.0 * 9.80665);
         let mut cells = Vec::new();
         for &e in &effects {
+            // an actuator places nothing by hand: no handling spikes to find (`--actuator`)
+            if pv.touch_s >= 3.0 && pv.press_fraction == 0.0 && e == E::Spikes {
+                cells.push(format!("{} n/a (--actuator)", e.name()));
+                seed += 10 * n;
+                continue;
+            }
             let m = magnitude_for(&sv, &pv, e, sv.noise_v, topv);
             let mut s = sv.clone();
             e.set(&mut s, m, topv);
