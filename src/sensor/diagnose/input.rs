@@ -49,6 +49,7 @@ fn horner(p: &[f64; DEG], x: f64) -> f64 {
 /// The first-order lag (τ) of an input that follows the polynomial `w` in x over a ramp of `d`
 /// ending at `end`, from 0 before it: on the ramp P(x) − P(0)·e^(−(t − start)/τ) with P =
 /// Σ (−τ/d)^k w⁽ᵏ⁾ (exact for a polynomial: τP′ + P = w); after it, a first-order approach to w(1).
+#[derive(Clone)]
 struct Lag {
     p: [f64; DEG],
     /// P at the ramp's end, and the input's end value w(1).
@@ -96,9 +97,28 @@ fn lag_args(t: f64, end: f64, tau: f64, d: f64) -> (f64, f64, f64, f64) {
     }
 }
 
-fn lag_poly(t: f64, end: f64, tau: f64, d: f64, w: &[f64; DEG]) -> f64 {
-    let (x, a, b, c) = lag_args(t, end, tau, d);
-    Lag::new(w, tau, d).at(x, a, b, c)
+/// The lag of a ramp's course through the read-out's bend ([`course`]), remembered: the model's
+/// rows ask for the same few (step, τ) over and over (a direct-mapped cache per thread; the same
+/// numbers as computing it afresh).
+fn course_lag(ramp: LoadIn, tau: f64) -> Lag {
+    type Key = (bool, u64, u64, u64);
+    thread_local! {
+        static CACHE: std::cell::RefCell<Vec<Option<(Key, Lag)>>> = std::cell::RefCell::new(vec![None; 512]);
+    }
+    let key: Key = (ramp.smooth, ramp.curve.to_bits(), tau.to_bits(), ramp.ramp_s.to_bits());
+    let h = (key.1 ^ key.2.rotate_left(17) ^ key.3.rotate_left(31) ^ u64::from(key.0)).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 55;
+    CACHE.with(|c| {
+        let mut c = c.borrow_mut();
+        let slot = &mut c[h as usize];
+        match slot {
+            Some((k, lag)) if *k == key => lag.clone(),
+            _ => {
+                let lag = Lag::new(&course(ramp.smooth, ramp.curve), tau, ramp.ramp_s);
+                *slot = Some((key, lag.clone()));
+                lag
+            }
+        }
+    })
 }
 
 /// The first-order response to the load as applied: a step at t0 ([`block_rise`]) or, with a
@@ -118,7 +138,7 @@ pub(super) fn rise(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
     if h <= 0.0 {
         return ramp_rise(t, t0, tau, ramp);
     }
-    let lag = Lag::new(&course(ramp.smooth, ramp.curve), tau, ramp.ramp_s);
+    let lag = course_lag(ramp, tau);
     let at = |t: f64| {
         let (x, a, b, c) = lag_args(t, t0, tau, ramp.ramp_s);
         lag.at(x, a, b, c)
@@ -129,13 +149,17 @@ pub(super) fn rise(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
 /// The first-order response at t to a load ramping from t0 − ramp to t0 (its course and the
 /// read-out's bend as [`course`]), normalised to reach 1.
 pub(super) fn ramp_rise(t: f64, end: f64, tau: f64, ramp: LoadIn) -> f64 {
-    lag_poly(t, end, tau, ramp.ramp_s, &course(ramp.smooth, ramp.curve))
+    let (x, a, b, c) = lag_args(t, end, tau, ramp.ramp_s);
+    course_lag(ramp, tau).at(x, a, b, c)
 }
 
 /// A relaxation kernel of time constant τ driven by the ramped load: ∫ w′(s)·e^(−(t − s)/τ) ds,
 /// which is the input's course w less its lag, w(t) − [`ramp_rise`] (by parts).
 pub(super) fn ramp_kernel(t: f64, end: f64, tau: f64, ramp: LoadIn) -> f64 {
     let x = (t - (end - ramp.ramp_s)) / ramp.ramp_s;
+    if x >= 1.0 && (t - end) / tau > SETTLED {
+        return 0.0;
+    }
     let w = if x <= 0.0 { 0.0 } else if x >= 1.0 { 1.0 } else { horner(&course(ramp.smooth, ramp.curve), x) };
     w - ramp_rise(t, end, tau, ramp)
 }
