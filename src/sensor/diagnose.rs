@@ -322,14 +322,16 @@ impl Design {
         }
         // the catalogue's terms start where a step's load has landed (a ramp's end): the steps on
         // their ramp are not theirs yet
-        let landed: Vec<usize> = active.iter().copied().filter(|&s| tr.segs[s].input.ramp_s <= 0.0 || t + h >= cfg.t0_of(i, s, &tr.segs[s])).collect();
+        // (the steps are in time order: those still on their ramp are the last of the active)
+        let on_ramp = active.iter().rev().take_while(|&&s| tr.segs[s].input.ramp_s > 0.0 && t + h < cfg.t0_of(i, s, &tr.segs[s])).count();
+        let landed = &active[..active.len() - on_ramp];
         let cur = landed.last().copied();
         let steps = TrialSteps { i, tr, cfg, hat, l0: hat.level_of(self.loads[0]), top: hat.max_level() };
         for e in &cfg.effects {
             match e {
                 Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Hysteresis => out[col] = cur.map(|s| catalogue::hysteresis::column(&steps, s, t)).unwrap_or(0.0),
-                Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, &landed, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
+                Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, landed, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
                 Effect::BaselineDrift => out[col] = catalogue::baseline_drift::column(t, tr.t[0], cfg.drift_tau),
                 Effect::Relaxation => {
                     if let Some(rx) = &cfg.relax {

@@ -124,6 +124,7 @@ fn course_lag(ramp: LoadIn, tau: f64) -> Lag {
 /// The first-order response to the load as applied: a step at t0 ([`block_rise`]) or, with a
 /// ramp of `ramp` s ending at t0 (an actuator's travel), the ramp's response averaged over the
 /// filtered sample's span [t − h, t + h] (Simpson's rule: the ramp's response is smooth on it).
+#[inline]
 pub(super) fn rise(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
     if ramp.ramp_s <= 0.0 {
         return block_rise(t, t0, tau, h);
@@ -228,8 +229,9 @@ pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64)
     at(d, fit(d).1)
 }
 
-/// The ramp durations (s) tried for an actuator's load, up to half the shortest hold.
-const RAMP_GRID_S: [f64; 7] = [1.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0];
+/// The ramp durations (s) tried for an actuator's load, up to half the shortest hold (each step
+/// then takes its own, 0.4–2 × the data set's: together 0.6–20 s).
+const RAMP_GRID_S: [f64; 3] = [1.5, 4.0, 10.0];
 /// A ramp replaces the load changing at once when it lowers the baseline's held-out RMSE by this.
 const MIN_RAMP_GAIN: f64 = 0.02;
 
@@ -267,7 +269,11 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
     let scores: Vec<f64> = cands.par_iter().map(|&r| score(r)).collect();
     let at_once = scores[0];
     let mut best = cands.into_iter().zip(scores).skip(1).fold((f64::INFINITY, None), |b, (r, s)| if s < b.0 { (s, r) } else { b });
-    if let (_, Some(r0)) = best {
+    // the end refined only for a ramp that pays already at half the rule's gain
+    if let (s0, Some(r0)) = best {
+        if s0 >= (1.0 - 0.5 * MIN_RAMP_GAIN) * at_once {
+            return opts.clone();
+        }
         let (s, r) = best_of([-1.0, -0.5, 0.5, 1.0].into_iter().map(|e| Some(Ramp { end_after_log_s: e, ..r0 })).collect());
         if s < best.0 {
             best = (s, r);
@@ -277,7 +283,6 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
     o.pre.ramp = best.1.filter(|_| best.0 < (1.0 - MIN_RAMP_GAIN) * at_once);
     o
 }
-
 
 #[cfg(test)]
 mod tests {
