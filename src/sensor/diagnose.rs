@@ -1162,7 +1162,7 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Opti
             if let (Some(r), Some(q)) = (ramp, q) {
                 t0 = st.t_log + r.end_after_log_s;
                 let prev_end = prep.steps[ri].iter().filter(|p| p.t_log < st.t_log).map(|p| p.t_log + r.end_after_log_s).fold(series.t.first().copied().unwrap_or(0.0), f64::max);
-                input = step_ramp(series, t0, (f.trials[q].v0, f.k, f.tau_s), r, t0 - prev_end);
+                (t0, input) = step_ramp(series, t0, (f.trials[q].v0, f.k, f.tau_s), r, t0 - prev_end);
             }
             // a jump within one sample (fit::jump_time) is modelled as one; the creep or
             // relaxation after it is the diagnosis's

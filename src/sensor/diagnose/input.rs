@@ -186,19 +186,19 @@ pub(super) fn ramp_dt0(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
 /// The ramp durations tried for one step, as shares of the data set's.
 const STEP_RAMP_SHARES: [f64; 12] = [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.15, 1.3, 1.5, 1.75, 2.0];
 
-/// One step's ramp: its duration (s), the share of the data set's `r` whose first-order response,
-/// from the part-1 fit's level before it, change and τ (`fit`), best matches the samples from
-/// before the longest such ramp to a few τ after its end `end` (least squares; at most 90 % of the
-/// time since the previous ramp's end), and the read-out's bend along it (linear given the
-/// duration, within ±1).
-pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64), r: Ramp, since_prev: f64) -> LoadIn {
+/// One step's ramp: where it ends (the data set's `end`, moved by up to ±0.4 s: the log's own
+/// timing), its duration (s), the share of the data set's `r` whose first-order response, from the
+/// part-1 fit's level before it, change and τ (`fit`), best matches the samples from before the
+/// longest such ramp to a few τ after its end (least squares; at most 90 % of the time since the
+/// previous ramp's end), and the read-out's bend along it (linear given the duration, within ±1).
+pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64), r: Ramp, since_prev: f64) -> (f64, LoadIn) {
     let shared = r.duration_s;
-    let longest = (STEP_RAMP_SHARES[STEP_RAMP_SHARES.len() - 1] * shared).min(0.9 * since_prev);
+    let longest = (STEP_RAMP_SHARES[STEP_RAMP_SHARES.len() - 1] * shared).min(0.9 * since_prev - END_SHIFTS_S[END_SHIFTS_S.len() - 1]);
     let idx: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j] && series.t[j] >= end - longest - 0.5 && series.t[j] <= end + (3.0 * tau).clamp(0.5, 10.0)).collect();
     let (straight, bend) = (course(r.smooth, 0.0), course(r.smooth, 1.0));
     let bend: [f64; DEG] = std::array::from_fn(|i| bend[i] - straight[i]);
-    // the bend that fits best at duration d, and the squared error with it
-    let fit = |d: f64| -> (f64, f64) {
+    // the bend that fits best with the ramp (end, duration d), and the squared error with it
+    let fit = |end: f64, d: f64| -> (f64, f64) {
         let (mut see, mut seb, mut sbb) = (0.0, 0.0, 0.0);
         let (ls, lb) = (Lag::new(&straight, tau, d), Lag::new(&bend, tau, d));
         for &j in &idx {
@@ -213,21 +213,27 @@ pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64)
     };
     let grid: Vec<f64> = STEP_RAMP_SHARES.iter().map(|a| a * shared).filter(|&d| d <= longest).collect();
     let at = |d: f64, c: f64| LoadIn { ramp_s: d, smooth: r.smooth, curve: c };
-    let Some(b) = (0..grid.len()).min_by(|&a, &b| fit(grid[a]).0.total_cmp(&fit(grid[b]).0)) else { return at(shared.min(longest), 0.0) };
-    // refined between the grid's neighbours by golden section
+    let Some(b) = (0..grid.len()).min_by(|&a, &b| fit(end, grid[a]).0.total_cmp(&fit(end, grid[b]).0)) else { return (end, at(shared.min(longest).max(0.1), 0.0)) };
+    // the end at the best grid duration, then the duration refined between the grid's neighbours
+    // by golden section
+    let d0 = grid[b];
+    let end = END_SHIFTS_S.iter().map(|s| end + s).min_by(|&x, &y| fit(x, d0).0.total_cmp(&fit(y, d0).0)).unwrap_or(end);
     let (mut lo, mut hi) = (grid[b.saturating_sub(1)], grid[(b + 1).min(grid.len() - 1)]);
     let g = 0.5 * (5f64.sqrt() - 1.0);
     for _ in 0..14 {
         let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        if fit(m1).0 < fit(m2).0 {
+        if fit(end, m1).0 < fit(end, m2).0 {
             hi = m2;
         } else {
             lo = m1;
         }
     }
     let d = 0.5 * (lo + hi);
-    at(d, fit(d).1)
+    (end, at(d, fit(end, d).1))
 }
+
+/// How far a step's ramp may end from the data set's end (s): the log's timing of each step.
+const END_SHIFTS_S: [f64; 9] = [-0.4, -0.3, -0.2, -0.1, 0.0, 0.1, 0.2, 0.3, 0.4];
 
 /// The ramp durations (s) tried for an actuator's load, up to half the shortest hold (each step
 /// then takes its own, 0.4–2 × the data set's: together 0.6–20 s).
