@@ -148,6 +148,8 @@ struct Relax {
     /// One more kernel set per trial, from its first sample: the relaxation the sample brings
     /// from before the recording (how long it rested differs between trials).
     trials: usize,
+    /// Driven by each step's own ramp (the baseline's, an actuator's), not by `ramp_s`/`end_s`.
+    by_steps: bool,
 }
 
 impl Relax {
@@ -592,7 +594,7 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
                 "after_unloading_per_unit_change": &amps[n..],
                 "peak_tau_after_loading_s": peak_l, "peak_share_after_loading": share_l,
                 "peak_tau_after_unloading_s": peak_u, "peak_share_after_unloading": share_u,
-                "ramp_s": rx.ramp_s, "ramp_end_after_logged_change_s": rx.end_s,
+                "ramp_s": rx.ramp_s, "ramp_end_after_logged_change_s": rx.end_s, "driven_by_the_steps_ramps": rx.by_steps,
                 "penalty": rx.lambda,
                 "first_order_share_after_loading": if rx.own_tau { at(k + rx.sets() * n) } else { 0.0 }, "first_order_share_after_unloading": if rx.own_tau { at(k + rx.sets() * n + 1) } else { 0.0 },
             })

@@ -52,8 +52,8 @@ fn horner(p: &[f64; DEG], x: f64) -> f64 {
 #[derive(Clone)]
 struct Lag {
     p: [f64; DEG],
-    /// P at the ramp's end, and the input's end value w(1).
-    p1: f64,
+    /// The response at the ramp's end, P(1) − P(0)·e^(−d/τ), and the input's end value w(1).
+    on_end: f64,
     w1: f64,
 }
 
@@ -68,32 +68,31 @@ impl Lag {
             dk = std::array::from_fn(|i| if i + 1 < DEG { (i + 1) as f64 * dk[i + 1] } else { 0.0 });
             f *= -a;
         }
-        Lag { p1: horner(&p, 1.0), w1: horner(w, 1.0), p }
+        Lag { on_end: horner(&p, 1.0) - p[0] * catalogue::decay(1.0 / a), w1: horner(w, 1.0), p }
     }
-    /// The response given x = (t − start)/d and the decays e^(−(t − start)/τ) and, after the
-    /// ramp, e^(−d/τ) and e^(−(t − end)/τ).
-    fn at(&self, x: f64, from_start: f64, over_ramp: f64, from_end: f64) -> f64 {
+    /// The response given x = (t − start)/d and the decay e^(−(t − start)/τ) on the ramp or
+    /// e^(−(t − end)/τ) after it.
+    fn at(&self, x: f64, decay: f64) -> f64 {
         if x <= 0.0 {
             0.0
         } else if x <= 1.0 {
-            horner(&self.p, x) - self.p[0] * from_start
+            horner(&self.p, x) - self.p[0] * decay
         } else {
-            let on_end = self.p1 - self.p[0] * over_ramp;
-            self.w1 + (on_end - self.w1) * from_end
+            self.w1 + (self.on_end - self.w1) * decay
         }
     }
 }
 
 /// [`Lag::at`]'s arguments at time t.
-fn lag_args(t: f64, end: f64, tau: f64, d: f64) -> (f64, f64, f64, f64) {
+fn lag_args(t: f64, end: f64, tau: f64, d: f64) -> (f64, f64) {
     let start = end - d;
     let x = (t - start) / d;
     if x <= 0.0 {
-        (x, 1.0, 1.0, 1.0)
+        (x, 1.0)
     } else if x <= 1.0 {
-        (x, catalogue::decay((t - start) / tau), 1.0, 1.0)
+        (x, catalogue::decay((t - start) / tau))
     } else {
-        (x, 1.0, catalogue::decay(d / tau), catalogue::decay((t - end) / tau))
+        (x, catalogue::decay((t - end) / tau))
     }
 }
 
@@ -103,10 +102,10 @@ fn lag_args(t: f64, end: f64, tau: f64, d: f64) -> (f64, f64, f64, f64) {
 fn course_lag(ramp: LoadIn, tau: f64) -> Lag {
     type Key = (bool, u64, u64, u64);
     thread_local! {
-        static CACHE: std::cell::RefCell<Vec<Option<(Key, Lag)>>> = std::cell::RefCell::new(vec![None; 512]);
+        static CACHE: std::cell::RefCell<Vec<Option<(Key, Lag)>>> = std::cell::RefCell::new(vec![None; 4096]);
     }
     let key: Key = (ramp.smooth, ramp.curve.to_bits(), tau.to_bits(), ramp.ramp_s.to_bits());
-    let h = (key.1 ^ key.2.rotate_left(17) ^ key.3.rotate_left(31) ^ u64::from(key.0)).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 55;
+    let h = (key.1 ^ key.2.rotate_left(17) ^ key.3.rotate_left(31) ^ u64::from(key.0)).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 52;
     CACHE.with(|c| {
         let mut c = c.borrow_mut();
         let slot = &mut c[h as usize];
@@ -141,8 +140,8 @@ pub(super) fn rise(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
     }
     let lag = course_lag(ramp, tau);
     let at = |t: f64| {
-        let (x, a, b, c) = lag_args(t, t0, tau, ramp.ramp_s);
-        lag.at(x, a, b, c)
+        let (x, a) = lag_args(t, t0, tau, ramp.ramp_s);
+        lag.at(x, a)
     };
     (at(t - h) + 4.0 * at(t) + at(t + h)) / 6.0
 }
@@ -150,8 +149,8 @@ pub(super) fn rise(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
 /// The first-order response at t to a load ramping from t0 − ramp to t0 (its course and the
 /// read-out's bend as [`course`]), normalised to reach 1.
 pub(super) fn ramp_rise(t: f64, end: f64, tau: f64, ramp: LoadIn) -> f64 {
-    let (x, a, b, c) = lag_args(t, end, tau, ramp.ramp_s);
-    course_lag(ramp, tau).at(x, a, b, c)
+    let (x, a) = lag_args(t, end, tau, ramp.ramp_s);
+    course_lag(ramp, tau).at(x, a)
 }
 
 /// A relaxation kernel of time constant τ driven by the ramped load: ∫ w′(s)·e^(−(t − s)/τ) ds,
@@ -202,8 +201,8 @@ pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64)
         let (mut see, mut seb, mut sbb) = (0.0, 0.0, 0.0);
         let (ls, lb) = (Lag::new(&straight, tau, d), Lag::new(&bend, tau, d));
         for &j in &idx {
-            let (x, p, q, r) = lag_args(series.t[j], end, tau, d);
-            let (e, b) = (series.v[j] - v0 - k * ls.at(x, p, q, r), k * lb.at(x, p, q, r));
+            let (x, p) = lag_args(series.t[j], end, tau, d);
+            let (e, b) = (series.v[j] - v0 - k * ls.at(x, p), k * lb.at(x, p));
             see += e * e;
             seb += e * b;
             sbb += b * b;

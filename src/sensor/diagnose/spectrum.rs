@@ -19,7 +19,7 @@ pub(super) fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx
     }
     for (q, sg) in tr.segs.iter().enumerate() {
         // the load as the baseline applies it (an actuator's ramps), else the spectrum's own ramp
-        let ramped = sg.input.ramp_s > 0.0;
+        let ramped = rx.by_steps && sg.input.ramp_s > 0.0;
         let (end, ramp_s) = if ramped { (sg.t0, sg.input.ramp_s) } else { (sg.t_log + rx.end_s, rx.ramp_s) };
         if t <= end - ramp_s {
             break;
@@ -114,11 +114,20 @@ pub(super) fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score
     // the shape is chosen on every k-th sample of a long recording (the ranking of a few dozen
     // candidates does not need 10^7 rows); scored and refitted on all of them
     let search = thinned(trials, SEARCH_ROWS);
-    for rx in relax_candidates(trials, actuator) {
-        let mut c = base.clone();
-        c.effects.push(Effect::Relaxation);
-        c.relax = Some(rx);
-        if let Some(cv) = relax_cv(d, &search, &c, hat) {
+    // the candidates scored in parallel (2 cores), the first best taken in their order
+    use rayon::prelude::*;
+    let cands: Vec<Config> = relax_candidates(trials, actuator)
+        .into_iter()
+        .map(|rx| {
+            let mut c = base.clone();
+            c.effects.push(Effect::Relaxation);
+            c.relax = Some(rx);
+            c
+        })
+        .collect();
+    let cvs: Vec<Option<f64>> = cands.par_iter().map(|c| relax_cv(d, &search, c, hat)).collect();
+    for (c, cv) in cands.into_iter().zip(cvs) {
+        if let Some(cv) = cv {
             if pick.as_ref().is_none_or(|p| cv < p.1) {
                 pick = Some((c, cv));
             }
@@ -126,16 +135,20 @@ pub(super) fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score
     }
     // then the ramp refined around the pick: half a grid step either way in duration and end
     let (mut c, mut best_cv) = pick?;
-    let ramped = trials.iter().any(|tr| tr.segs.iter().any(|s| s.input.ramp_s > 0.0));
-    if let Some(rx) = c.relax.clone().filter(|_| !ramped) {
+    if let Some(rx) = c.relax.clone().filter(|rx| !rx.by_steps) {
         let (dr, de) = if actuator { (1.0, 0.5) } else { (0.15, 0.15) };
-        for (ramp_s, end_s) in [(rx.ramp_s - dr, rx.end_s), (rx.ramp_s + dr, rx.end_s), (rx.ramp_s, rx.end_s - de), (rx.ramp_s, rx.end_s + de)] {
-            if ramp_s < 0.0 {
-                continue;
-            }
-            let mut cand = c.clone();
-            cand.relax = Some(Relax { ramp_s, end_s, ..rx.clone() });
-            if let Some(cv) = relax_cv(d, &search, &cand, hat).filter(|cv| *cv < best_cv) {
+        let around: Vec<Config> = [(rx.ramp_s - dr, rx.end_s), (rx.ramp_s + dr, rx.end_s), (rx.ramp_s, rx.end_s - de), (rx.ramp_s, rx.end_s + de)]
+            .into_iter()
+            .filter(|(ramp_s, _)| *ramp_s >= 0.0)
+            .map(|(ramp_s, end_s)| {
+                let mut cand = c.clone();
+                cand.relax = Some(Relax { ramp_s, end_s, ..rx.clone() });
+                cand
+            })
+            .collect();
+        let cvs: Vec<Option<f64>> = around.par_iter().map(|cand| relax_cv(d, &search, cand, hat)).collect();
+        for (cand, cv) in around.into_iter().zip(cvs) {
+            if let Some(cv) = cv.filter(|cv| *cv < best_cv) {
                 (c, best_cv) = (cand, cv);
             }
         }
@@ -162,7 +175,7 @@ pub(super) fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score
     let refitted = |c: &Config| refit_onsets(d, &judged, c, hat).and_then(|(g, _)| score(d, &g, c, hat)).map(|(s, _)| s.heldout_rmse);
     let clearly = gain > 0.0
         && z >= MIN_Z
-        && match (refitted(&c), refitted(cur)) {
+        && match rayon::join(|| refitted(&c), || refitted(cur)) {
             (Some(a), Some(b)) => a < (1.0 - SPECTRUM_MARGIN) * b,
             _ => s.heldout_rmse < (1.0 - SPECTRUM_MARGIN) * cur_judged.heldout_rmse,
         };
@@ -225,16 +238,20 @@ pub(super) fn relax_candidates(trials: &[Trial], actuator: bool) -> Vec<Relax> {
     let half = trials.iter().map(|tr| tr.half_span_s).fold(0.0, f64::max);
     let span = trials.iter().map(|tr| tr.t.last().copied().unwrap_or(0.0) - tr.t.first().copied().unwrap_or(0.0)).fold(0.0, f64::max);
     let taus = catalogue::relaxation::grid((2.0 * dt).max(2.0 * half).max(0.1), 0.5 * span);
-    // steps the baseline drives by their ramps drive the kernels by the same (one shape)
+    // steps the baseline drives by their ramps may drive the kernels by the same (one more
+    // shape, beside the spectrum's own ramps)
     let ramped = trials.iter().any(|tr| tr.segs.iter().any(|s| s.input.ramp_s > 0.0));
-    let (ramps, ends): (&[f64], &[f64]) = if ramped {
-        (&[0.0], &[0.0])
-    } else if actuator { (&[0.0, 2.0, 4.0, 6.0, 8.0], &[-2.0, -1.0, 0.0]) } else { (&[0.0, 0.3, 0.6], &[-0.3, 0.0, 0.3]) };
+    let (ramps, ends): (&[f64], &[f64]) = if actuator { (&[0.0, 2.0, 4.0, 6.0, 8.0], &[-2.0, -1.0, 0.0]) } else { (&[0.0, 0.3, 0.6], &[-0.3, 0.0, 0.3]) };
     let shapes = ramps.iter().flat_map(|&ramp_s| ends.iter().map(move |&end_s| (ramp_s, end_s)));
     // a recording scored in forward blocks has one change of a kind per hold: a set per kind would
     // be estimated from the hold it forecasts, so loading and unloading share one
     let shared = hold_blocks(trials) > 0;
-    shapes.flat_map(|(ramp_s, end_s)| [false, true].map(|own_tau| Relax { taus: taus.clone(), ramp_s, end_s, lambda: None, own_tau, shared, trials: n_trials })).collect()
+    let by_steps = ramped.then_some((0.0, 0.0, true));
+    shapes
+        .map(|(r, e)| (r, e, false))
+        .chain(by_steps)
+        .flat_map(|(ramp_s, end_s, by_steps)| [false, true].map(|own_tau| Relax { taus: taus.clone(), ramp_s, end_s, lambda: None, own_tau, shared, trials: n_trials, by_steps }))
+        .collect()
 }
 
 /// Leave-one-unit-out error of a configuration on all the data, its relaxation penalty chosen
