@@ -420,3 +420,26 @@ fn an_actuators_ramp_is_fitted_and_clean_data_stays_clean() {
     // loads placed by hand keep the step at once
     assert!(diagnose(&case(1000, |_| {}), &Default::default()).unwrap().baseline.load_ramp.is_none());
 }
+
+/// `fit --actuator` on an actuator's ramps (issue 15, items 1 and 6): the steps are fitted from
+/// each ramp's end, so the time constants are the sensor's first-order ones (τ = 0.25 + 0.178·F s),
+/// not the ramp's or a creep's (the step at once gave 270 s on every step of such data).
+#[test]
+fn fit_on_an_actuators_ramps_recovers_the_first_order_time_constants() {
+    let s = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
+    let mut p = ProtocolParams::from_source(&load("params/protocol-1000g.toml")).unwrap();
+    (p.touch_s, p.hold_s, p.top_hold_s, p.baseline_s, p.final_rest_s) = (7.5, 40.0, 40.0, 30.0, 30.0);
+    let recs: Vec<_> = (0..3).map(|k| simulate(&s, &p, 0.0, None, 82_000 + k).0).collect();
+    let mut opts = tipforge::sensor::analyze::Options::default();
+    opts.pre.handling = false;
+    opts.pre.ramp = tipforge::sensor::diagnose::load_ramp(&recs, &opts);
+    assert!(opts.pre.ramp.is_some());
+    let (report, _) = tipforge::sensor::analyze::analyze(&recs, &opts);
+    let loading: Vec<_> = report.steps.iter().filter(|st| st.phase == tipforge::sensor::preprocess::Phase::Loading).collect();
+    assert_eq!(loading.len(), 5);
+    for st in loading {
+        let f = st.lsq.as_ref().expect("fitted");
+        let tau = s.tau(st.after / 1000.0 * tipforge::sensor::sim::G_N_PER_KG);
+        assert!((f.tau_s - tau).abs() < 0.15 * tau, "{} g: τ {} s, truth {tau} s", st.after, f.tau_s);
+    }
+}

@@ -53,8 +53,18 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, actuator: bool, out:
     }
     let recs = g.finish(recs)?;
     bar.step("fitting the steps");
+    // an actuator's load ramps in: the steps are fitted from each ramp's end (issue 15, item 1)
+    opts.pre.ramp = super::diagnose::load_ramp(&recs, &opts);
     let (report, prep) = analyze::analyze(&recs, &opts);
     let mut lines = Vec::new();
+    if let Some(r) = opts.pre.ramp {
+        lines.push(format!(
+            "load ramp (an actuator's): {:.1} s {}, ending {:+.1} s from each logged change; the steps' k and τ are fitted from each ramp's end, the level before it",
+            r.duration_s,
+            if r.smooth { "S-curve" } else { "at a constant speed" },
+            r.end_after_log_s
+        ));
+    }
     for r in &report.recordings {
         lines.push(format!(
             "{}: {} samples at {:.2} Hz, {} steps, {} handling spike(s) excluded, noise {}",

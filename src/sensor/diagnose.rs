@@ -1591,6 +1591,14 @@ fn preload_search(recs: &[Recording], opts: &Options, sb: &SimBaseline) -> Optio
 /// to when the data hold no effect. On the same noise without an effect, their error to the truth
 /// is the least error any model with the baseline's freedom (levels, time constants, onsets) plus
 /// terms can be expected to reach (the discovery benchmark's floor column).
+/// The load's ramp of an actuator's recordings as `diagnose` fits it (None for loads placed by
+/// hand, or when no ramp beats the step at once): for `fit`, whose step fits then take the level
+/// before each ramp and fit from its end.
+pub fn load_ramp(recs: &[Recording], opts: &Options) -> Option<super::preprocess::Ramp> {
+    let lsq = Options { method: analyze::Method::Lsq, ..opts.clone() };
+    with_ramp(recs, &lsq).pre.ramp
+}
+
 pub fn refitted_baseline(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
     run_spike_checked(recs, opts, None, true)
 }
