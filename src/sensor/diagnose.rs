@@ -493,8 +493,9 @@ fn clip_offset(i: usize, tr: &Trial, t: f64, cfg: &Config) -> f64 {
         .filter(|(k, _)| *k == i)
         .map(|&(_, s)| {
             let sg = &tr.segs[s];
-            // as the design row: active from t + h ≥ t0, with the filtered-sample average of u
-            if t + tr.half_span_s >= cfg.t0_of(i, s, sg) {
+            // as the design row: active from t + h ≥ t0 (less a ramp), with the filtered-sample
+            // average of u
+            if t + tr.half_span_s >= cfg.t0_of(i, s, sg) - sg.input.ramp_s {
                 c * (1.0 - rise(t, cfg.t0_of(i, s, sg), cfg.tau_of(i, s, sg), tr.half_span_s, sg.input))
             } else {
                 0.0
@@ -587,17 +588,22 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
             let shape = catalogue::relaxation::name(&rx.taus, &amps);
             let (peak_l, share_l) = catalogue::relaxation::peak(&rx.taus, &amps[..n]);
             let (peak_u, share_u) = catalogue::relaxation::peak(&rx.taus, &amps[n..]);
-            serde_json::json!({
+            let mut v = serde_json::json!({
                 "shape": match shape { catalogue::relaxation::Shape::Creep => "broad band (creep)", catalogue::relaxation::Shape::SecondTimeConstant => "one narrow peak (second time constant)", catalogue::relaxation::Shape::ChangeDriven => "one sign after loading and unloading (change-driven)" },
                 "tau_s": rx.taus,
                 "after_loading_per_unit_change": &amps[..n],
                 "after_unloading_per_unit_change": &amps[n..],
                 "peak_tau_after_loading_s": peak_l, "peak_share_after_loading": share_l,
                 "peak_tau_after_unloading_s": peak_u, "peak_share_after_unloading": share_u,
-                "ramp_s": rx.ramp_s, "ramp_end_after_logged_change_s": rx.end_s, "driven_by_the_steps_ramps": rx.by_steps,
+                "ramp_s": rx.ramp_s, "ramp_end_after_logged_change_s": rx.end_s,
                 "penalty": rx.lambda,
                 "first_order_share_after_loading": if rx.own_tau { at(k + rx.sets() * n) } else { 0.0 }, "first_order_share_after_unloading": if rx.own_tau { at(k + rx.sets() * n + 1) } else { 0.0 },
-            })
+            });
+            // said only when the spectrum is driven by the steps' own ramps (an actuator's)
+            if rx.by_steps {
+                v["driven_by_the_steps_ramps"] = serde_json::json!(true);
+            }
+            v
         }
     }
 }
@@ -1161,10 +1167,15 @@ fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Opti
             // a ramped load: the step's onset is the ramp's end, where the data set's ramp puts it;
             // its duration is the step's own (an actuator's travel differs from step to step)
             let mut input = LoadIn::default();
-            if let (Some(r), Some(q)) = (ramp, q) {
+            if let Some(r) = ramp {
+                // a trial without its own part-1 fit of this step keeps the data set's ramp
                 t0 = st.t_log + r.end_after_log_s;
-                let prev_end = prep.steps[ri].iter().filter(|p| p.t_log < st.t_log).map(|p| p.t_log + r.end_after_log_s).fold(series.t.first().copied().unwrap_or(0.0), f64::max);
-                (t0, input) = step_ramp(series, t0, (f.trials[q].v0, f.k, f.tau_s), r, t0 - prev_end);
+                input = LoadIn { ramp_s: r.duration_s, smooth: r.smooth, curve: 0.0 };
+                if let Some(q) = q {
+                    let prev_end_s = prep.steps[ri].iter().filter(|p| p.t_log < st.t_log).map(|p| p.t_log + r.end_after_log_s).fold(series.t.first().copied().unwrap_or(0.0), f64::max);
+                    let next_start_s = prep.steps[ri].iter().filter(|p| p.t_log > st.t_log).map(|p| p.t_log + r.end_after_log_s - r.duration_s).fold(f64::INFINITY, f64::min);
+                    (t0, input) = step_ramp(series, t0, (f.trials[q].v0, f.k, f.tau_s), r, (prev_end_s, next_start_s));
+                }
             }
             // a jump within one sample (fit::jump_time) is modelled as one; the creep or
             // relaxation after it is the diagnosis's
@@ -1586,11 +1597,6 @@ fn preload_search(recs: &[Recording], opts: &Options, sb: &SimBaseline) -> Optio
     Some((given, best, s))
 }
 
-/// The estimation floor of the model's first-order part: [`diagnose`] with the final refit done
-/// even when no term is chosen, so its `baseline` predictions are what the improved model reduces
-/// to when the data hold no effect. On the same noise without an effect, their error to the truth
-/// is the least error any model with the baseline's freedom (levels, time constants, onsets) plus
-/// terms can be expected to reach (the discovery benchmark's floor column).
 /// The load's ramp of an actuator's recordings as `diagnose` fits it (None for loads placed by
 /// hand, or when no ramp beats the step at once): for `fit`, whose step fits then take the level
 /// before each ramp and fit from its end.
@@ -1599,6 +1605,11 @@ pub fn load_ramp(recs: &[Recording], opts: &Options) -> Option<super::preprocess
     with_ramp(recs, &lsq).pre.ramp
 }
 
+/// The estimation floor of the model's first-order part: [`diagnose`] with the final refit done
+/// even when no term is chosen, so its `baseline` predictions are what the improved model reduces
+/// to when the data hold no effect. On the same noise without an effect, their error to the truth
+/// is the least error any model with the baseline's freedom (levels, time constants, onsets) plus
+/// terms can be expected to reach (the discovery benchmark's floor column).
 pub fn refitted_baseline(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
     run_spike_checked(recs, opts, None, true)
 }

@@ -49,12 +49,32 @@ fn horner(p: &[f64; DEG], x: f64) -> f64 {
 /// The first-order lag (τ) of an input that follows the polynomial `w` in x over a ramp of `d`
 /// ending at `end`, from 0 before it: on the ramp P(x) − P(0)·e^(−(t − start)/τ) with P =
 /// Σ (−τ/d)^k w⁽ᵏ⁾ (exact for a polynomial: τP′ + P = w); after it, a first-order approach to w(1).
+/// For τ over [`SLOW_LAG`] × d that difference of large terms (P(0) grows as (τ/d)⁶) loses its
+/// digits, and the ramp's part is the integral (d/τ)∫₀ˣ w(s)·e^(−(x − s)d/τ) ds instead, by
+/// 8-point Gauss–Legendre (exact for w, and the exponential varies slowly over the ramp).
 #[derive(Clone)]
 struct Lag {
     p: [f64; DEG],
-    /// The response at the ramp's end, P(1) − P(0)·e^(−d/τ), and the input's end value w(1).
+    /// The response at the ramp's end, and the input's end value w(1).
     on_end: f64,
     w1: f64,
+    /// For a slow lag: the input and τ/d, integrated on the ramp.
+    slow: Option<([f64; DEG], f64)>,
+}
+
+/// τ/d above which the ramp's lag is integrated (its polynomial form cancels).
+const SLOW_LAG: f64 = 2.0;
+
+/// Gauss–Legendre nodes and weights on [−1, 1] (8 points, by symmetry).
+const GL_X: [f64; 4] = [0.183_434_642_495_649_8, 0.525_532_409_916_329, 0.796_666_477_413_626_7, 0.960_289_856_497_536_3];
+const GL_W: [f64; 4] = [0.362_683_783_378_362, 0.313_706_645_877_887_3, 0.222_381_034_453_374_5, 0.101_228_536_290_376_3];
+
+/// (1/a)∫₀ˣ w(s)·e^(−(x − s)/a) ds by 8-point Gauss–Legendre.
+fn lag_integral(w: &[f64; DEG], a: f64, x: f64) -> f64 {
+    let h = 0.5 * x;
+    let f = |s: f64| horner(w, s) * (-(x - s) / a).exp();
+    let sum: f64 = GL_X.iter().zip(&GL_W).map(|(&u, &g)| g * (f(h * (1.0 - u)) + f(h * (1.0 + u)))).sum();
+    sum * h / a
 }
 
 impl Lag {
@@ -68,7 +88,9 @@ impl Lag {
             dk = std::array::from_fn(|i| if i + 1 < DEG { (i + 1) as f64 * dk[i + 1] } else { 0.0 });
             f *= -a;
         }
-        Lag { on_end: horner(&p, 1.0) - p[0] * catalogue::decay(1.0 / a), w1: horner(w, 1.0), p }
+        let slow = (a > SLOW_LAG).then_some((*w, a));
+        let on_end = if slow.is_some() { lag_integral(w, a, 1.0) } else { horner(&p, 1.0) - p[0] * catalogue::decay(1.0 / a) };
+        Lag { on_end, w1: horner(w, 1.0), p, slow }
     }
     /// The response given x = (t − start)/d and the decay e^(−(t − start)/τ) on the ramp or
     /// e^(−(t − end)/τ) after it.
@@ -76,7 +98,10 @@ impl Lag {
         if x <= 0.0 {
             0.0
         } else if x <= 1.0 {
-            horner(&self.p, x) - self.p[0] * decay
+            match &self.slow {
+                Some((w, a)) => lag_integral(w, *a, x),
+                None => horner(&self.p, x) - self.p[0] * decay,
+            }
         } else {
             self.w1 + (self.on_end - self.w1) * decay
         }
@@ -122,7 +147,8 @@ fn course_lag(ramp: LoadIn, tau: f64) -> Lag {
 
 /// The first-order response to the load as applied: a step at t0 ([`block_rise`]) or, with a
 /// ramp of `ramp` s ending at t0 (an actuator's travel), the ramp's response averaged over the
-/// filtered sample's span [t − h, t + h] (Simpson's rule: the ramp's response is smooth on it).
+/// filtered sample's span [t − h, t + h] by Simpson's rule (approximate where the span holds the
+/// ramp's start or end, whose response bends there; h is a fraction of a second, the ramps seconds).
 #[inline]
 pub(super) fn rise(t: f64, t0: f64, tau: f64, h: f64, ramp: LoadIn) -> f64 {
     if ramp.ramp_s <= 0.0 {
@@ -188,12 +214,14 @@ const STEP_RAMP_SHARES: [f64; 12] = [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.15, 1.
 /// One step's ramp: where it ends (the data set's `end`, moved by up to ±0.4 s: the log's own
 /// timing), its duration (s), the share of the data set's `r` whose first-order response, from the
 /// part-1 fit's level before it, change and τ (`fit`), best matches the samples from before the
-/// longest such ramp to a few τ after its end (least squares; at most 90 % of the time since the
-/// previous ramp's end), and the read-out's bend along it (linear given the duration, within ±1).
-pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64), r: Ramp, since_prev: f64) -> (f64, LoadIn) {
-    let shared = r.duration_s;
-    let longest = (STEP_RAMP_SHARES[STEP_RAMP_SHARES.len() - 1] * shared).min(0.9 * since_prev - END_SHIFTS_S[END_SHIFTS_S.len() - 1]);
-    let idx: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j] && series.t[j] >= end - longest - 0.5 && series.t[j] <= end + (3.0 * tau).clamp(0.5, 10.0)).collect();
+/// longest such ramp to a few τ after its end (least squares; the ramp starts after the previous
+/// ramp's end, 90 % of the time between them at most, and the samples stop where the next ramp
+/// nominally starts), and the read-out's bend along it (linear given the rest, within ±1).
+pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64), r: Ramp, (prev_end_s, next_start_s): (f64, f64)) -> (f64, LoadIn) {
+    let shared_s = r.duration_s;
+    let longest_s = (STEP_RAMP_SHARES[STEP_RAMP_SHARES.len() - 1] * shared_s).min(0.9 * (end - prev_end_s) - END_SHIFTS_S[END_SHIFTS_S.len() - 1]);
+    let until_s = (end + (3.0 * tau).clamp(0.5, 10.0)).min(next_start_s).max(end + 0.5);
+    let idx: Vec<usize> = (0..series.t.len()).filter(|&j| series.ok[j] && series.t[j] >= end - longest_s - 0.5 && series.t[j] <= until_s).collect();
     let (straight, bend) = (course(r.smooth, 0.0), course(r.smooth, 1.0));
     let bend: [f64; DEG] = std::array::from_fn(|i| bend[i] - straight[i]);
     // the bend that fits best with the ramp (end, duration d), and the squared error with it
@@ -210,24 +238,34 @@ pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64)
         let c = if sbb > 0.0 { (seb / sbb).clamp(-1.0, 1.0) } else { 0.0 };
         (see - 2.0 * c * seb + c * c * sbb, c)
     };
-    let grid: Vec<f64> = STEP_RAMP_SHARES.iter().map(|a| a * shared).filter(|&d| d <= longest).collect();
     let at = |d: f64, c: f64| LoadIn { ramp_s: d, smooth: r.smooth, curve: c };
-    let Some(b) = (0..grid.len()).min_by(|&a, &b| fit(end, grid[a]).0.total_cmp(&fit(end, grid[b]).0)) else { return (end, at(shared.min(longest).max(0.1), 0.0)) };
-    // the end at the best grid duration, then the duration refined between the grid's neighbours
-    // by golden section
+    let grid: Vec<f64> = STEP_RAMP_SHARES.iter().map(|a| a * shared_s).filter(|&d| d <= longest_s).collect();
+    let first = |xs: &[f64], sse: &dyn Fn(f64) -> f64| -> Option<(usize, f64)> {
+        xs.iter().map(|&x| sse(x)).enumerate().fold(None, |b: Option<(usize, f64)>, (i, v)| if b.is_none_or(|b| v < b.1) { Some((i, v)) } else { b })
+    };
+    // too short a hold for any share of the data set's ramp: the shortest that fits, straight
+    let Some((b, _)) = first(&grid, &|d| fit(end, d).0) else { return (end, at(longest_s.max(STEP_RAMP_SHARES[0] * shared_s).min(shared_s), 0.0)) };
     let d0 = grid[b];
-    let end = END_SHIFTS_S.iter().map(|s| end + s).min_by(|&x, &y| fit(x, d0).0.total_cmp(&fit(y, d0).0)).unwrap_or(end);
+    // the end at the best grid duration, then the duration refined between the grid's neighbours
+    // by golden section (kept only when it fits better than the grid's best)
+    let shifts: Vec<f64> = END_SHIFTS_S.iter().map(|s| end + s).collect();
+    let end = first(&shifts, &|e| fit(e, d0).0).map(|(i, _)| shifts[i]).unwrap_or(end);
     let (mut lo, mut hi) = (grid[b.saturating_sub(1)], grid[(b + 1).min(grid.len() - 1)]);
     let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut m1, mut m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut f1, mut f2) = (fit(end, m1).0, fit(end, m2).0);
     for _ in 0..14 {
-        let (m1, m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        if fit(end, m1).0 < fit(end, m2).0 {
-            hi = m2;
+        if f1 < f2 {
+            (hi, m2, f2) = (m2, m1, f1);
+            m1 = hi - g * (hi - lo);
+            f1 = fit(end, m1).0;
         } else {
-            lo = m1;
+            (lo, m1, f1) = (m1, m2, f2);
+            m2 = lo + g * (hi - lo);
+            f2 = fit(end, m2).0;
         }
     }
-    let d = 0.5 * (lo + hi);
+    let d = [0.5 * (lo + hi), d0].into_iter().min_by(|&x, &y| fit(end, x).0.total_cmp(&fit(end, y).0)).unwrap_or(d0);
     (end, at(d, fit(end, d).1))
 }
 
@@ -242,10 +280,12 @@ const MIN_RAMP_GAIN: f64 = 0.02;
 
 /// An actuator's recordings (`--actuator`, or `loading=actuator` in their metadata): the load's
 /// ramp, fitted once per data set (issue 15, item 1). The actuator travels for seconds around the
-/// logged change; the baseline's first-order steps are driven by a linear ramp of a duration from
-/// [`RAMP_GRID_S`] ending at the logged change, then the end moved by ±0.5 and ±1 s, each scored by
-/// the baseline's own cross-validation (its held-out RMSE over the units). Loads placed by hand,
-/// and a ramp that gains under [`MIN_RAMP_GAIN`], keep the step at once.
+/// logged change; the baseline's first-order steps are driven by a ramp of each duration of
+/// [`RAMP_GRID_S`], at a constant speed and as an S-curve, ending at the logged change; for the
+/// best of them, when it already gains half of [`MIN_RAMP_GAIN`], the end is moved by ±0.5 and
+/// ±1 s. Each is scored by the baseline's own cross-validation (its held-out RMSE over the units).
+/// Loads placed by hand, and a ramp that gains under [`MIN_RAMP_GAIN`], keep the step at once (when
+/// the step at once cannot be scored at all, any ramp that can is taken).
 pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
     use rayon::prelude::*;
 
@@ -300,6 +340,22 @@ mod tests {
     #[test]
     fn a_ramped_rise_is_the_lag_of_the_ramp() {
         let (end, tau, d) = (10.0, 0.7, 3.0);
+        // a slow lag (τ/d = 50 and 500) is integrated, not cancelled: checked at the ramp's end
+        for (tau, d) in [(1.0, 0.02), (1.0, 0.002)] {
+            let input = LoadIn { ramp_s: d, smooth: true, curve: 0.8 };
+            let w = |x: f64| {
+                let s = x * x * (3.0 - 2.0 * x);
+                s + 0.8 * s * (1.0 - s)
+            };
+            let (mut y, mut x, h) = (0.0, 0.0, 1e-6);
+            while x < 1.0 {
+                y += h * (w(x + 0.5 * h) - y) * d / tau;
+                x += h;
+            }
+            let got = ramp_rise(end, end, tau, input);
+            assert!((got - y).abs() < 1e-6 * y.abs().max(1e-9) + 1e-12, "τ/d {}: {got} vs {y}", tau / d);
+            assert!(got > 0.0 && got < d / tau, "τ/d {}: {got}", tau / d);
+        }
         for (smooth, c) in [(false, 0.0), (true, 0.0), (false, 0.4), (true, -0.7)] {
             let input = LoadIn { ramp_s: d, smooth, curve: c };
             let w = |t: f64| {

@@ -28,8 +28,13 @@ pub(super) fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx
         let set = if steps.unloading(q) && !rx.shared { k } else { 0 };
         let own = rx.sets() * k + usize::from(steps.unloading(q));
         let since = t - steps.t0(q);
-        if since >= 0.0 && rx.own_tau {
-            out[own] += dv * (-since / steps.tau(q)).exp();
+        if rx.own_tau {
+            // the steps' own first-order decay, of the load as the baseline applies it
+            if sg.input.ramp_s > 0.0 {
+                out[own] += dv * ramp_kernel(t, steps.t0(q), steps.tau(q), sg.input);
+            } else if since >= 0.0 {
+                out[own] += dv * (-since / steps.tau(q)).exp();
+            }
         }
         for (j, &tau) in rx.taus.iter().enumerate() {
             out[set + j] += dv * if ramped { ramp_kernel(t, end, tau, sg.input) } else { catalogue::relaxation::kernel(t, end, ramp_s, tau) };
@@ -114,7 +119,7 @@ pub(super) fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score
     // the shape is chosen on every k-th sample of a long recording (the ranking of a few dozen
     // candidates does not need 10^7 rows); scored and refitted on all of them
     let search = thinned(trials, SEARCH_ROWS);
-    // the candidates scored in parallel (2 cores), the first best taken in their order
+    // the candidates scored in parallel, the first best taken in their order (as in sequence)
     use rayon::prelude::*;
     let cands: Vec<Config> = relax_candidates(trials, actuator)
         .into_iter()
