@@ -661,27 +661,11 @@ fn refine_tau2(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<
         c.tau2 = ln_tau2.exp();
         train_bic(d, trials, &c, hat).map(|(b, _)| b).unwrap_or(f64::INFINITY)
     };
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let (mut a, mut b) = (cfg.tau2.ln() - TAU2_STEP.ln(), cfg.tau2.ln() + TAU2_STEP.ln());
-    let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
-    let (mut f1, mut f2) = (at(x1), at(x2));
     // 10 steps shrink the bracket to 0.8 % of a grid step (0.3 % in τ2)
-    for _ in 0..10 {
-        if f1 < f2 {
-            b = x2;
-            (x2, f2) = (x1, f1);
-            x1 = b - g * (b - a);
-            f1 = at(x1);
-        } else {
-            a = x1;
-            (x1, f1) = (x2, f2);
-            x2 = a + g * (b - a);
-            f2 = at(x2);
-        }
-    }
-    let best = if f1 < f2 { x1 } else { x2 };
+    let br = super::golden::golden(at, cfg.tau2.ln() - TAU2_STEP.ln(), cfg.tau2.ln() + TAU2_STEP.ln(), 10, 0.0);
+    let (best, f_best) = br.best();
     let base = at(cfg.tau2.ln());
-    if f1.min(f2) >= base {
+    if f_best >= base {
         return None;
     }
     let mut c = cfg.clone();

@@ -439,28 +439,8 @@ pub fn varpro(d: &StepData) -> Option<StepFit> {
         termination = Termination::AtBound;
     }
     // golden section in the bracket around the best grid point
-    let (mut a, mut b) = (grid[best.saturating_sub(1)], grid[(best + 1).min(m - 1)]);
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let (mut c, mut e) = (b - g * (b - a), a + g * (b - a));
-    let (mut fc, mut fe) = (f(c), f(e));
-    for _ in 0..40 {
-        if (b - a).abs() < 1e-3 {
-            break;
-        }
-        if fc < fe {
-            b = e;
-            e = c;
-            fe = fc;
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = e;
-            fc = fe;
-            e = a + g * (b - a);
-            fe = f(e);
-        }
-    }
+    let br = super::golden::golden(&mut f, grid[best.saturating_sub(1)], grid[(best + 1).min(m - 1)], 40, 1e-3);
+    let (a, b) = (br.a, br.b);
     // Newton on log τ with central differences
     let mut lt = 0.5 * (a + b);
     for _ in 0..6 {

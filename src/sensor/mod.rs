@@ -10,6 +10,7 @@ pub mod diagnose;
 pub mod diagnose_out;
 pub mod fashion;
 pub mod fit;
+pub mod golden;
 pub mod heldout_guard;
 pub mod output;
 pub mod pooling;

@@ -250,22 +250,8 @@ pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64)
     // by golden section (kept only when it fits better than the grid's best)
     let shifts: Vec<f64> = END_SHIFTS_S.iter().map(|s| end + s).collect();
     let end = first(&shifts, &|e| fit(e, d0).0).map(|(i, _)| shifts[i]).unwrap_or(end);
-    let (mut lo, mut hi) = (grid[b.saturating_sub(1)], grid[(b + 1).min(grid.len() - 1)]);
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut m1, mut m2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-    let (mut f1, mut f2) = (fit(end, m1).0, fit(end, m2).0);
-    for _ in 0..14 {
-        if f1 < f2 {
-            (hi, m2, f2) = (m2, m1, f1);
-            m1 = hi - g * (hi - lo);
-            f1 = fit(end, m1).0;
-        } else {
-            (lo, m1, f1) = (m1, m2, f2);
-            m2 = lo + g * (hi - lo);
-            f2 = fit(end, m2).0;
-        }
-    }
-    let d = [0.5 * (lo + hi), d0].into_iter().min_by(|&x, &y| fit(end, x).0.total_cmp(&fit(end, y).0)).unwrap_or(d0);
+    let br = crate::sensor::golden::golden(|d| fit(end, d).0, grid[b.saturating_sub(1)], grid[(b + 1).min(grid.len() - 1)], 14, 0.0);
+    let d = [0.5 * (br.a + br.b), d0].into_iter().min_by(|&x, &y| fit(end, x).0.total_cmp(&fit(end, y).0)).unwrap_or(d0);
     (end, at(d, fit(end, d).1))
 }
 
