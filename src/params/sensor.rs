@@ -157,6 +157,14 @@ pub static SENSOR_SCHEMA: Schema = Schema {
         ("nuisance", false, &NUISANCE),
     ],
 };
+/// A placement's touch lasts 0.5–1.5 × `touch_s` (the simulator's draw): at most this many times it.
+pub const TOUCH_DRAW_MAX: f64 = 1.5;
+
+/// Whether touches of `touch_s` end inside holds and rests of at least `shortest_s`.
+pub fn touch_fits(touch_s: f64, shortest_s: f64) -> bool {
+    TOUCH_DRAW_MAX * touch_s < shortest_s
+}
+
 pub static PROTOCOL_SCHEMA: Schema =
     Schema { fields: || &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s", "touch_s", "press_fraction", "top_hold_s", "final_rest_s", "cycles"], tables: &[] };
 
@@ -323,8 +331,8 @@ impl ProtocolParams {
         // each touch draws up to 1.5 × touch_s and must end inside the hold before it
         if let (Some(d), Some(h), Some(b)) = (touch, hold, base) {
             let shortest = h.min(b).min(top.unwrap_or(h)).min(final_rest.unwrap_or(b));
-            if 1.5 * d >= shortest {
-                c.push("touch_s", d, format!("a touch draws up to 1.5 × touch_s, which must stay under the shortest hold or rest ({shortest} s): use touch_s < {:.2}", shortest / 1.5));
+            if !touch_fits(d, shortest) {
+                c.push("touch_s", d, format!("a touch draws up to {TOUCH_DRAW_MAX} × touch_s, which must stay under the shortest hold or rest ({shortest} s): use touch_s < {:.2}", shortest / TOUCH_DRAW_MAX));
             }
         }
         let v = (|| {

@@ -171,8 +171,8 @@ fn candidates(base: &ProtocolParams) -> Vec<(&'static str, ProtocolParams)> {
     if base.cycles < 10 {
         v.push(("one more load-unload cycle", ProtocolParams { cycles: base.cycles + 1, ..base.clone() }));
     }
-    // a touch draws up to 1.5 × touch_s and must end inside every hold (the protocol file's rule)
-    if 1.5 * 5.0 < base.hold_s.min(base.top_hold_s).min(base.baseline_s).min(base.final_rest_s) {
+    // only where its protocol file would load (the touches end inside every hold and rest)
+    if crate::params::sensor::touch_fits(5.0, base.hold_s.min(base.top_hold_s).min(base.baseline_s).min(base.final_rest_s)) {
         v.push(("a slower ramp (each weight lowered over 5 s)", ProtocolParams { touch_s: 5.0, ..base.clone() }));
     }
     v

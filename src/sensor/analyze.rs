@@ -300,7 +300,11 @@ fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepRep
         let hold_s = g.step.t_end - g.step.t_log;
         // a load that ramps in is no jump, whatever the fitted onset (it stands inside the ramp)
         let ramped = opts.pre.ramp.is_some_and(|r| r.duration_s > 0.0);
-        let jumps: Vec<Option<f64>> = lsq.as_ref().map(|f| g.trials.iter().zip(&f.trials).map(|(tr, tp)| fit::jump_time(tr, tp, f).filter(|_| !ramped)).collect()).unwrap_or_default();
+        let jumps: Vec<Option<f64>> = match &lsq {
+            Some(_) if ramped => vec![None; g.trials.len()],
+            Some(f) => g.trials.iter().zip(&f.trials).map(|(tr, tp)| fit::jump_time(tr, tp, f)).collect(),
+            None => vec![],
+        };
         let dt = g.trials.iter().filter_map(fit::sample_interval).fold(f64::INFINITY, f64::min);
         let creep = lsq.as_ref().and_then(|f| tau_describes_creep(f, hold_s, &jumps, dt));
         steps.push(StepReport {

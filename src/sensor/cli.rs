@@ -296,6 +296,9 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
     super::heldout_guard::check(&d, &recs)?;
     // the analysis's report, once, when the advice or the twin needs its fashion curves
     let ambiguous = d.findings.iter().any(|f| !f.alternatives.is_empty());
+    // (with the load's ramp the diagnosis fitted, so its steps are the diagnosis's)
+    let mut opts = opts;
+    opts.pre.ramp = d.baseline.load_ramp;
     let report = (ambiguous || write_sensor.is_some()).then(|| super::analyze::analyze(&recs, &opts).0);
     // what to record next, for every finding whose name does not stand alone
     let mut d = d;

@@ -595,13 +595,15 @@ fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde
                 "after_unloading_per_unit_change": &amps[n..],
                 "peak_tau_after_loading_s": peak_l, "peak_share_after_loading": share_l,
                 "peak_tau_after_unloading_s": peak_u, "peak_share_after_unloading": share_u,
-                "ramp_s": rx.ramp_s, "ramp_end_after_logged_change_s": rx.end_s,
                 "penalty": rx.lambda,
                 "first_order_share_after_loading": if rx.own_tau { at(k + rx.sets() * n) } else { 0.0 }, "first_order_share_after_unloading": if rx.own_tau { at(k + rx.sets() * n + 1) } else { 0.0 },
             });
-            // said only when the spectrum is driven by the steps' own ramps (an actuator's)
+            // the spectrum's own ramp, or (an actuator's) the steps' own ramps it is driven by
             if rx.by_steps {
                 v["driven_by_the_steps_ramps"] = serde_json::json!(true);
+            } else {
+                v["ramp_s"] = serde_json::json!(rx.ramp_s);
+                v["ramp_end_after_logged_change_s"] = serde_json::json!(rx.end_s);
             }
             v
         }

@@ -181,13 +181,24 @@ pub(super) fn ramp_rise(t: f64, end: f64, tau: f64, ramp: LoadIn) -> f64 {
 
 /// A relaxation kernel of time constant τ driven by the ramped load: ∫ w′(s)·e^(−(t − s)/τ) ds,
 /// which is the input's course w less its lag, w(t) − [`ramp_rise`] (by parts).
-pub(super) fn ramp_kernel(t: f64, end: f64, tau: f64, ramp: LoadIn) -> f64 {
-    let x = (t - (end - ramp.ramp_s)) / ramp.ramp_s;
-    if x >= 1.0 && (t - end) / tau > SETTLED {
+/// `w`: the input's course at t ([`course_at`], the same for every τ).
+pub(super) fn ramp_kernel(t: f64, end: f64, tau: f64, ramp: LoadIn, w: f64) -> f64 {
+    if t > end && (t - end) / tau > SETTLED {
         return 0.0;
     }
-    let w = if x <= 0.0 { 0.0 } else if x >= 1.0 { 1.0 } else { horner(&course(ramp.smooth, ramp.curve), x) };
     w - ramp_rise(t, end, tau, ramp)
+}
+
+/// The input's course at t over a ramp ending at `end`: 0 before it, 1 after it.
+pub(super) fn course_at(t: f64, end: f64, ramp: LoadIn) -> f64 {
+    let x = (t - (end - ramp.ramp_s)) / ramp.ramp_s;
+    if x <= 0.0 {
+        0.0
+    } else if x >= 1.0 {
+        1.0
+    } else {
+        horner(&course(ramp.smooth, ramp.curve), x)
+    }
 }
 
 /// ∂/∂ln τ of a ramped [`rise`] (central difference).
@@ -240,9 +251,8 @@ pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64)
     };
     let at = |d: f64, c: f64| LoadIn { ramp_s: d, smooth: r.smooth, curve: c };
     let grid: Vec<f64> = STEP_RAMP_SHARES.iter().map(|a| a * shared_s).filter(|&d| d <= longest_s).collect();
-    let first = |xs: &[f64], sse: &dyn Fn(f64) -> f64| -> Option<(usize, f64)> {
-        xs.iter().map(|&x| sse(x)).enumerate().fold(None, |b: Option<(usize, f64)>, (i, v)| if b.is_none_or(|b| v < b.1) { Some((i, v)) } else { b })
-    };
+    // the first of the best, each point fitted once
+    let first = |xs: &[f64], sse: &dyn Fn(f64) -> f64| -> Option<(usize, f64)> { xs.iter().map(|&x| sse(x)).enumerate().min_by(|a, b| a.1.total_cmp(&b.1)) };
     // too short a hold for any share of the data set's ramp: the shortest that fits, straight
     let Some((b, _)) = first(&grid, &|d| fit(end, d).0) else { return (end, at(longest_s.max(STEP_RAMP_SHARES[0] * shared_s).min(shared_s), 0.0)) };
     let d0 = grid[b];
@@ -251,8 +261,10 @@ pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64)
     let shifts: Vec<f64> = END_SHIFTS_S.iter().map(|s| end + s).collect();
     let end = first(&shifts, &|e| fit(e, d0).0).map(|(i, _)| shifts[i]).unwrap_or(end);
     let br = crate::sensor::golden::golden(|d| fit(end, d).0, grid[b.saturating_sub(1)], grid[(b + 1).min(grid.len() - 1)], 14, 0.0);
-    let d = [0.5 * (br.a + br.b), d0].into_iter().min_by(|&x, &y| fit(end, x).0.total_cmp(&fit(end, y).0)).unwrap_or(d0);
-    (end, at(d, fit(end, d).1))
+    let mid = 0.5 * (br.a + br.b);
+    let (on_mid, on_grid) = (fit(end, mid), fit(end, d0));
+    let (d, c) = if on_mid.0 <= on_grid.0 { (mid, on_mid.1) } else { (d0, on_grid.1) };
+    (end, at(d, c))
 }
 
 /// How far a step's ramp may end from the data set's end (s): the log's timing of each step.
@@ -293,13 +305,11 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
         cands.into_iter().zip(scores).fold((f64::INFINITY, None), |b, (r, s)| if s < b.0 { (s, r) } else { b })
     };
     let shortest = recs.iter().flat_map(|r| crate::sensor::preprocess::segment(r, &opts.pre).0).map(|s| s.t_end - s.t_log).fold(f64::INFINITY, f64::min);
-    let mut cands = vec![None];
-    for smooth in [false, true] {
-        cands.extend(RAMP_GRID_S.into_iter().filter(|&d| d <= 0.5 * shortest).map(|d| Some(Ramp { duration_s: d, end_after_log_s: 0.0, smooth })));
-    }
-    let scores: Vec<f64> = cands.par_iter().map(|&r| score(r)).collect();
-    let at_once = scores[0];
-    let mut best = cands.into_iter().zip(scores).skip(1).fold((f64::INFINITY, None), |b, (r, s)| if s < b.0 { (s, r) } else { b });
+    let grid: Vec<Option<Ramp>> = [false, true]
+        .into_iter()
+        .flat_map(|smooth| RAMP_GRID_S.into_iter().filter(|&d| d <= 0.5 * shortest).map(move |d| Some(Ramp { duration_s: d, end_after_log_s: 0.0, smooth })))
+        .collect();
+    let (at_once, mut best) = rayon::join(|| score(None), || best_of(grid));
     // the end refined only for a ramp that pays already at half the rule's gain
     if let (s0, Some(r0)) = best {
         if s0 >= (1.0 - 0.5 * MIN_RAMP_GAIN) * at_once {

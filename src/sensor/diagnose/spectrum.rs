@@ -28,16 +28,18 @@ pub(super) fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx
         let set = if steps.unloading(q) && !rx.shared { k } else { 0 };
         let own = rx.sets() * k + usize::from(steps.unloading(q));
         let since = t - steps.t0(q);
+        // the input's course at t, for every kernel of a ramped step
+        let w = if sg.input.ramp_s > 0.0 { course_at(t, sg.t0, sg.input) } else { 0.0 };
         if rx.own_tau {
             // the steps' own first-order decay, of the load as the baseline applies it
             if sg.input.ramp_s > 0.0 {
-                out[own] += dv * ramp_kernel(t, steps.t0(q), steps.tau(q), sg.input);
+                out[own] += dv * ramp_kernel(t, steps.t0(q), steps.tau(q), sg.input, w);
             } else if since >= 0.0 {
                 out[own] += dv * (-since / steps.tau(q)).exp();
             }
         }
         for (j, &tau) in rx.taus.iter().enumerate() {
-            out[set + j] += dv * if ramped { ramp_kernel(t, end, tau, sg.input) } else { catalogue::relaxation::kernel(t, end, ramp_s, tau) };
+            out[set + j] += dv * if ramped { ramp_kernel(t, end, tau, sg.input, w) } else { catalogue::relaxation::kernel(t, end, ramp_s, tau) };
         }
     }
 }
