@@ -1,0 +1,240 @@
+//! Cross-validation: a model fitted on everything (RMSE, BIC) and on folds (held-out RMSE per
+//! unit). Folds leave out one trial (its own offset, gains and rest relaxation validated inside it),
+//! one step of a single recording, or the later blocks of a hold (forward in time).
+
+use super::*;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Score {
+    pub rmse: f64,
+    pub heldout_rmse: f64,
+    pub bic: f64,
+    pub params: usize,
+    /// Samples scored.
+    pub n: usize,
+    /// Held-out squared error per unit (trial × step segment, or step segment), for paired tests.
+    #[serde(skip)]
+    pub units: Vec<f64>,
+    /// The (trial, segment) of each unit, in the order of `units`.
+    #[serde(skip)]
+    pub unit_keys: Vec<(usize, usize)>,
+    /// Samples held out per unit, in the order of `units`.
+    #[serde(skip)]
+    pub unit_n: Vec<usize>,
+    /// Blocks per hold when the units are blocks of holds (one recording whose load levels are
+    /// not each held in two steps), else 0.
+    #[serde(skip)]
+    pub blocks: usize,
+}
+
+/// BIC of the fit on everything (no folds): what shape parameters are chosen by.
+pub(super) fn train_bic(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(f64, Vec<f64>)> {
+    let rows = all_rows(trials);
+    let x = solve(d, trials, &rows, cfg, hat)?;
+    let mut buf = Vec::new();
+    let rss: f64 = rows.iter().map(|&(i, j)| (trials[i].v[j] - predict(d, i, &trials[i], trials[i].t[j], &x, cfg, hat, &mut buf)).powi(2)).sum();
+    let (n, p) = (rows.len() as f64, (d.ncols(cfg) + usize::from(cfg.clip.is_some())) as f64);
+    Some((n * (rss / n).max(1e-300).ln() + p * n.ln(), x))
+}
+
+/// A held-out trial's own columns (its offset, and its gains and rest relaxation when the model has
+/// them), fitted on the samples before its first step and its odd segments (for scoring the even
+/// ones), and on those before and its even segments (for the odd ones), by least squares on the
+/// residual of the fold's model without them. Returns (columns, values per parity).
+pub(super) fn trial_terms_halves(d: &Design, k: usize, tr: &Trial, xk: &[f64], cfg: &Config, hat: &Hat) -> (Vec<usize>, [Vec<f64>; 2]) {
+    let mut cols = vec![k];
+    if d.n_gains(cfg) > 0 {
+        cols.extend((0..GAIN_COLS).map(|c| d.gain_col(cfg) + GAIN_COLS * k + c));
+    }
+    if d.n_rests(cfg) > 0 {
+        cols.push(d.rest_col(cfg) + k);
+    }
+    let m = cols.len();
+    let mut x = xk.to_vec();
+    cols.iter().for_each(|&c| x[c] = 0.0);
+    let mut a = [DMatrix::<f64>::zeros(m, m), DMatrix::<f64>::zeros(m, m)];
+    let mut r = [DVector::<f64>::zeros(m), DVector::<f64>::zeros(m)];
+    let mut buf = Vec::new();
+    let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
+    for j in 0..tr.t.len() {
+        let seg = tr.segs.iter().filter(|s| s.t0 <= tr.t[j]).count();
+        if (seg == 0 && tr.t[j] >= t_first - 0.2) || at_jump(tr, tr.t[j]) || !usable(tr, j, cfg) {
+            continue;
+        }
+        let e = tr.v[j] - predict(d, k, tr, tr.t[j], &x, cfg, hat, &mut buf);
+        let c = DVector::from_iterator(m, cols.iter().map(|&q| buf[q]));
+        // fitted on this segment's parity, used for the other's; before the first step, for both
+        for p in 0..2 {
+            if seg == 0 || p != seg % 2 {
+                a[p] += &c * c.transpose();
+                r[p] += &c * e;
+            }
+        }
+    }
+    let vals = [0, 1].map(|p| {
+        let mut ap = a[p].clone();
+        let scale = 1e-9 * (0..m).map(|q| ap[(q, q)]).sum::<f64>().max(1e-300);
+        for q in 0..m {
+            ap[(q, q)] += scale;
+        }
+        ap.cholesky().map(|ch| ch.solve(&r[p]).iter().copied().collect()).unwrap_or_else(|| vec![0.0; m])
+    });
+    (cols, vals)
+}
+
+/// Fit on everything (rmse, BIC) and on folds (held-out RMSE).
+pub(super) fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score, Vec<f64>)> {
+    score_on(d, trials, trials, cfg, hat)
+}
+
+/// Fitted to `fit` (the same trials, possibly as given with handling spikes), scored on `trials`.
+pub(super) fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score, Vec<f64>)> {
+    let rows = all_rows(trials);
+    let fit_rows = all_rows(fit);
+    // the normal equations per unit, once: every fold is a sum of them (and the relaxation
+    // spectrum's penalty is chosen within each fold, by leaving out one of its units at a time)
+    let units_n = unit_normals(d, fit, &fit_rows, cfg, hat);
+    let blocks = hold_blocks(trials);
+    let fold = |keep: &dyn Fn(&(usize, usize)) -> bool, support: Option<&[f64]>| -> Option<(Vec<f64>, Vec<f64>)> {
+        let parts: Vec<&Normal> = units_n.iter().filter(|(k, _)| keep(k)).map(|(_, n)| n).collect();
+        let lambda = match &cfg.relax {
+            Some(r) => r.lambda.unwrap_or_else(|| choose_lambda(d, cfg, &parts, support)),
+            None => 0.0,
+        };
+        solve_normal(d, cfg, &sum_normals(d, cfg, &parts), support, lambda)
+    };
+    let (x, full_diag) = fold(&|_| true, None)?;
+    let mut buf = Vec::new();
+    let (mut rss, mut n) = (0.0, 0usize);
+    for &(i, j) in &rows {
+        let e = trials[i].v[j] - predict(d, i, &trials[i], trials[i].t[j], &x, cfg, hat, &mut buf);
+        rss += e * e;
+        n += 1;
+    }
+    let p = d.ncols(cfg) + usize::from(cfg.clip.is_some());
+    let bic = n as f64 * (rss / n as f64).max(1e-300).ln() + p as f64 * (n as f64).ln();
+    let (mut hss, mut hn) = (0.0, 0usize);
+    let mut units: std::collections::BTreeMap<(usize, usize), f64> = Default::default();
+    let seg_of = |tr: &Trial, t: f64| tr.segs.iter().filter(|s| s.t0 <= t).count();
+    if trials.len() >= 2 {
+        for k in 0..trials.len() {
+            let Some((mut xk, _)) = fold(&|u| u.0 != k, None) else { continue };
+            // the held-out trial's own offset, from its samples before the first step
+            let tr = &trials[k];
+            let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
+            xk[k] = 0.0;
+            let pre: Vec<f64> = (0..tr.t.len()).filter(|&j| tr.t[j] < t_first - 0.2).map(|j| tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf)).collect();
+            xk[k] = if pre.is_empty() { 0.0 } else { pre.iter().sum::<f64>() / pre.len() as f64 };
+            // per-trial terms are validated inside their trial: fitted (with the offset) on every
+            // other step of it and scored on the steps between (both halves in turn)
+            let own = (d.n_gains(cfg) + d.n_rests(cfg) > 0).then(|| trial_terms_halves(d, k, tr, &xk, cfg, hat));
+            for j in 0..tr.t.len() {
+                if tr.t[j] >= t_first - 0.2 && !at_jump(tr, tr.t[j]) {
+                    if let Some((cols, vals)) = &own {
+                        for (c, v) in cols.iter().zip(&vals[seg_of(tr, tr.t[j]) % 2]) {
+                            xk[*c] = *v;
+                        }
+                    }
+                    let e = tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf);
+                    hss += e * e;
+                    hn += 1;
+                    *units.entry((k, seg_of(tr, tr.t[j]))).or_default() += e * e;
+                }
+            }
+        }
+    } else if blocks > 0 {
+        // one recording whose levels are not held in two steps each: the validation split inside
+        // the trial, forward in time — each block of a hold after its first is predicted from
+        // the blocks before it in the same hold and every other hold (a forecast: a trend the
+        // model leaves out shows in every block, not only at a hold's ends)
+        let tr = &trials[0];
+        let keys: std::collections::BTreeSet<(usize, usize)> = tr.t.iter().map(|&t| unit_key(tr, t, blocks)).filter(|k| k.1 > 0 && (k.1 - 1) % blocks > 0).collect();
+        for u in keys {
+            let (hold, block) = ((u.1 - 1) / blocks, (u.1 - 1) % blocks);
+            let later = |x: &(usize, usize)| x.1 > 0 && (x.1 - 1) / blocks == hold && (x.1 - 1) % blocks >= block;
+            let Some((xk, _)) = fold(&|x| !later(x), Some(&full_diag)) else { continue };
+            for j in (0..tr.t.len()).filter(|&j| unit_key(tr, tr.t[j], blocks) == u && !at_jump(tr, tr.t[j])) {
+                let e = tr.v[j] - predict(d, 0, tr, tr.t[j], &xk, cfg, hat, &mut buf);
+                hss += e * e;
+                hn += 1;
+                *units.entry(u).or_default() += e * e;
+            }
+        }
+    } else {
+        // one recording: leave one step out
+        let tr = &trials[0];
+        for s in 0..tr.segs.len() {
+            let (a, b) = (tr.segs[s].t0, tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY));
+            // the step's rows are unit s + 1 (segments count from the first onset)
+            let Some((mut xk, _)) = fold(&|u| *u != (0, s + 1), Some(&full_diag)) else { continue };
+            // the held-out step's own time-constant correction has (almost) no training data:
+            // predict it with the step's fitted τ
+            if cfg.tau_free && !d.prior {
+                xk[d.n_levels() + tr.segs[s].key] = 0.0;
+                // so has its onset shift, when its onset is refitted: its column is zero on every
+                // training row, and the solver's value for it is whatever the penalty left
+                if let Some(q) = d.refit_onset.iter().position(|&k| k == (0, s)) {
+                    xk[d.n_levels() + d.n_keys + q] = 0.0;
+                }
+            }
+            for j in 0..tr.t.len() {
+                if tr.t[j] >= a && tr.t[j] < b && !at_jump(tr, tr.t[j]) {
+                    let e = tr.v[j] - predict(d, 0, tr, tr.t[j], &xk, cfg, hat, &mut buf);
+                    hss += e * e;
+                    hn += 1;
+                    *units.entry((0, s)).or_default() += e * e;
+                }
+            }
+        }
+    }
+    // a fold that predicts a unit worse than any constant inside the signal's range has not
+    // determined what that unit needs (a level held once or briefly, shape corrections running
+    // off): the model cannot be scored held out on these data
+    let (lo, hi) = trials.iter().flat_map(|tr| tr.v.iter().copied()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    let range = (hi - lo).max(0.0);
+    let mut counts: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
+    if trials.len() >= 2 {
+        for (k, tr) in trials.iter().enumerate() {
+            let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
+            for &t in tr.t.iter().filter(|&&t| t >= t_first - 0.2) {
+                *counts.entry((k, seg_of(tr, t))).or_default() += 1;
+            }
+        }
+    } else if blocks > 0 {
+        let tr = &trials[0];
+        for &t in &tr.t {
+            let k = unit_key(tr, t, blocks);
+            if k.1 > 0 && !(k.1 - 1).is_multiple_of(blocks) {
+                *counts.entry(k).or_default() += 1;
+            }
+        }
+    } else {
+        let tr = &trials[0];
+        for (s, sg) in tr.segs.iter().enumerate() {
+            let b = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+            counts.insert((0, s), tr.t.iter().filter(|&&t| t >= sg.t0 && t < b).count());
+        }
+    }
+    if units
+        .iter()
+        .any(|(k, &e)| !(e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt().is_finite() || (e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt() > range)
+    {
+        return None;
+    }
+    let unit_keys: Vec<(usize, usize)> = units.keys().copied().collect();
+    let unit_n = unit_keys.iter().map(|k| counts.get(k).copied().unwrap_or(1).max(1)).collect();
+    Some((
+        Score {
+            rmse: (rss / n.max(1) as f64).sqrt(),
+            heldout_rmse: (hss / hn.max(1) as f64).sqrt(),
+            bic,
+            params: p,
+            n,
+            units: units.into_values().collect(),
+            unit_keys,
+            unit_n,
+            blocks,
+        },
+        x,
+    ))
+}

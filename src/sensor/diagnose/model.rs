@@ -1,0 +1,434 @@
+//! The model the diagnosis fits: each trial's steps (`Seg`, `Trial`), a model configuration
+//! (`Config`: which terms, their shape parameters), the levels the terms are built on (`Hat`) and
+//! the design row that makes every configuration linear given its shape (`Design::row`, `predict`).
+
+use super::*;
+
+/// One step of one trial.
+#[derive(Debug, Clone)]
+pub(super) struct Seg {
+    /// Index of the step's (phase, index) across trials: τ corrections are shared per step.
+    pub(super) key: usize,
+    pub(super) t0: f64,
+    pub(super) load: f64,
+    pub(super) prev: f64,
+    pub(super) tau: f64,
+    pub(super) phase: Phase,
+    /// When the change was logged (the load's ramp is placed relative to it).
+    pub(super) t_log: f64,
+    /// The load as applied: at once, or over a ramp ending at t0 (an actuator's travel).
+    pub(super) input: LoadIn,
+    /// With a simulator baseline: the simulated step (ΔV, τ).
+    pub(super) sim: Option<(f64, f64)>,
+}
+
+/// One trial's data as the model sees it.
+#[derive(Debug, Clone)]
+pub(super) struct Trial {
+    pub(super) name: String,
+    pub(super) t: Vec<f64>,
+    pub(super) v: Vec<f64>,
+    pub(super) segs: Vec<Seg>,
+    pub(super) sigma: f64,
+    /// With a simulator baseline: its level before the first step.
+    pub(super) prior0: Option<f64>,
+    /// How far below a clip the filtered series is bent by the clipped raw noise.
+    pub(super) clip_margin: f64,
+    /// Half the span of raw samples one filtered sample averages (0 without the filter): the
+    /// first-order part is modelled as that average, exact at a step's onset and its curved start.
+    pub(super) half_span_s: f64,
+    /// The series as given, handling spikes included (the baseline, the paper's model, is fitted
+    /// to it).
+    pub(super) given_t: Vec<f64>,
+    pub(super) given_v: Vec<f64>,
+}
+
+impl Trial {
+    /// From its first sample to its last (s).
+    pub(super) fn span_s(&self) -> f64 {
+        self.t.last().copied().unwrap_or(0.0) - self.t.first().copied().unwrap_or(0.0)
+    }
+    /// The simulator's prediction (0 without a simulator baseline).
+    pub(super) fn prior(&self, t: f64) -> f64 {
+        let Some(p0) = self.prior0 else { return 0.0 };
+        p0 + self.segs.iter().filter(|s| t >= s.t0).filter_map(|s| s.sim.map(|(dv, tau)| dv * (1.0 - catalogue::decay((t - s.t0) / tau)))).sum::<f64>()
+    }
+}
+
+/// A model configuration: which terms, and their shape parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Config {
+    /// Linearised τ corrections per step (free time constants, first order in Δln τ).
+    pub(super) tau_free: bool,
+    pub(super) effects: Vec<Effect>,
+    pub(super) tau2: f64,
+    /// What drives the second relaxation (its sign with the change, or the change's size).
+    pub(super) drive: Drive,
+    pub(super) clip: Option<f64>,
+    /// With a clip: the time constant and onset of each step the clip shapes, as
+    /// ((trial, segment), τ, onset). The clipped shape biases those steps' own first-order fits.
+    pub(super) tau_fixed: Vec<FixedStep>,
+    /// With a clip: the (trial, segment) steps that fall from a clipped load. The signal leaves the
+    /// clip on a first-order fall from the clip itself (their part-1 fits are of that fall), so they
+    /// restart at the clip: v = L_next·u + clip·(1 − u).
+    pub(super) restart: Vec<(usize, usize)>,
+    /// With the relaxation spectrum: its grid, the load's ramp and the smoothness penalty.
+    pub(super) relax: Option<Relax>,
+    /// A gain per trial (all but the first): the trials' step sizes differ by a factor (the
+    /// sensor's temperature, the hand), a nuisance, not physics of the sensor.
+    pub(super) gains: bool,
+    /// A relaxation per trial from its first sample, with this time constant: what the sample
+    /// brings from before the recording (how long it rested), a nuisance like the gains.
+    pub(super) rest_tau: Option<f64>,
+    /// Baseline drift as an exponential warm-up with this time constant from each trial's start
+    /// (shared by the trials, as the rate is); None: linear (the warm-up's limit of long τ).
+    pub(super) drift_tau: Option<f64>,
+}
+
+/// The relaxation spectrum's shape: kernels on a log grid of τ, driven by the load as applied (a
+/// ramp of `ramp_s` ending `end_s` after the logged change), amplitudes penalised by `lambda`
+/// (relative to the block's mean column energy; None: chosen by inner cross-validation wherever
+/// the model is solved).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Relax {
+    pub(super) taus: Vec<f64>,
+    pub(super) ramp_s: f64,
+    pub(super) end_s: f64,
+    pub(super) lambda: Option<f64>,
+    /// With the steps' own first-order decay among the columns ([`OWN_TAU_COLS`]).
+    pub(super) own_tau: bool,
+    /// One set of amplitudes for loading and unloading changes alike (linear viscoelasticity: the
+    /// recovery mirrors the creep); the unloading set's columns stay empty.
+    pub(super) shared: bool,
+    /// One more kernel set per trial, from its first sample: the relaxation the sample brings
+    /// from before the recording (how long it rested differs between trials).
+    pub(super) trials: usize,
+    /// Driven by each step's own ramp (the baseline's, an actuator's), not by `ramp_s`/`end_s`.
+    pub(super) by_steps: bool,
+}
+
+impl Relax {
+    /// Kernel sets: after loading, after unloading, then one per trial's start.
+    pub(super) fn sets(&self) -> usize {
+        2 + self.trials
+    }
+    pub(super) fn cols(&self) -> usize {
+        self.sets() * self.taus.len() + if self.own_tau { OWN_TAU_COLS } else { 0 }
+    }
+}
+
+/// A step whose time constant and onset are set, not taken from its own part-1 fit.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct FixedStep {
+    /// (trial, segment)
+    pub(super) at: (usize, usize),
+    pub(super) tau_s: f64,
+    pub(super) t0_s: f64,
+}
+
+impl Config {
+    pub(super) fn fixed(&self, i: usize, s: usize) -> Option<&FixedStep> {
+        self.tau_fixed.iter().find(|x| x.at == (i, s))
+    }
+    pub(super) fn tau_of(&self, i: usize, s: usize, sg: &Seg) -> f64 {
+        self.fixed(i, s).map(|x| x.tau_s).unwrap_or(sg.tau)
+    }
+    pub(super) fn t0_of(&self, i: usize, s: usize, sg: &Seg) -> f64 {
+        self.fixed(i, s).map(|x| x.t0_s).unwrap_or(sg.t0)
+    }
+}
+
+/// Baseline quantities the terms are built from (two-stage: fixed from the baseline fit).
+#[derive(Debug, Clone, Default)]
+pub(super) struct Hat {
+    pub(super) loads: Vec<f64>,
+    pub(super) level: Vec<f64>,
+}
+
+impl Hat {
+    pub(super) fn level_of(&self, l: f64) -> f64 {
+        self.loads.iter().position(|&x| x == l).map(|i| self.level[i]).unwrap_or(0.0)
+    }
+    pub(super) fn max_level(&self) -> f64 {
+        self.loads.iter().zip(&self.level).max_by(|a, b| a.0.partial_cmp(b.0).unwrap()).map(|x| *x.1).unwrap_or(0.0)
+    }
+}
+
+#[derive(Clone)]
+pub(super) struct Design {
+    pub(super) loads: Vec<f64>,
+    pub(super) n_trials: usize,
+    pub(super) n_keys: usize,
+    /// The (trial, segment) steps whose onset is refitted (a handling spike was cut from their
+    /// edge, taking the samples that fixed it in part 1), each with its column among them.
+    pub(super) refit_onset: Vec<(usize, usize)>,
+    /// The simulator gives the first-order part: no level or τ columns.
+    pub(super) prior: bool,
+    /// The shape columns (Δ ln τ, onset shifts) as the exact derivatives of the filtered-sample
+    /// model (the final refit's Gauss–Newton); otherwise of the point value (selection: its rules
+    /// were set with those columns).
+    pub(super) exact_shape: bool,
+}
+
+impl Design {
+    pub(super) fn n_levels(&self) -> usize {
+        self.n_trials + if self.prior { 0 } else { self.loads.len().saturating_sub(1) }
+    }
+    /// Columns of the first-order shape corrections (τ per step, onsets of the steps cut by spikes).
+    pub(super) fn n_shape(&self, cfg: &Config) -> usize {
+        if cfg.tau_free && !self.prior {
+            self.n_keys + self.refit_onset.len()
+        } else {
+            0
+        }
+    }
+    pub(super) fn ncols(&self, cfg: &Config) -> usize {
+        self.n_levels() + self.n_shape(cfg) + cfg.effects.iter().map(|e| effect_cols(*e, cfg)).sum::<usize>() + self.n_gains(cfg) + self.n_rests(cfg)
+    }
+    /// First column of the per-trial gains.
+    pub(super) fn gain_col(&self, cfg: &Config) -> usize {
+        self.ncols(cfg) - self.n_gains(cfg) - self.n_rests(cfg)
+    }
+    /// First column of the per-trial rest relaxations (the last columns of a row).
+    pub(super) fn rest_col(&self, cfg: &Config) -> usize {
+        self.ncols(cfg) - self.n_rests(cfg)
+    }
+    pub(super) fn n_rests(&self, cfg: &Config) -> usize {
+        if cfg.rest_tau.is_some() && !self.prior && self.n_trials >= 2 {
+            self.n_trials
+        } else {
+            0
+        }
+    }
+    /// Columns of the per-trial gains (the last columns of a row).
+    pub(super) fn n_gains(&self, cfg: &Config) -> usize {
+        if cfg.gains && !self.prior && self.n_trials >= 2 {
+            GAIN_COLS * self.n_trials
+        } else {
+            0
+        }
+    }
+    /// The design row of trial `i` at time t.
+    pub(super) fn row(&self, i: usize, tr: &Trial, t: f64, cfg: &Config, hat: &Hat, out: &mut Vec<f64>) {
+        out.clear();
+        out.resize(self.ncols(cfg), 0.0);
+        out[i] = 1.0;
+        let base = self.n_trials;
+        // level columns: loads[0] is the reference level (absorbed by o_i)
+        let h = tr.half_span_s;
+        let active: Vec<usize> = (0..tr.segs.len()).filter(|&s| t + h >= cfg.t0_of(i, s, &tr.segs[s]) - tr.segs[s].input.ramp_s).collect();
+        for &s in active.iter().filter(|_| !self.prior) {
+            let sg = &tr.segs[s];
+            let u = rise(t, cfg.t0_of(i, s, sg), cfg.tau_of(i, s, sg), h, sg.input);
+            if let Some(c) = self.loads.iter().position(|&x| x == sg.load).filter(|&c| c > 0) {
+                out[base + c - 1] += u;
+            }
+            let restart = cfg.restart.contains(&(i, s));
+            if let Some(c) = self.loads.iter().position(|&x| x == sg.prev).filter(|&c| c > 0) {
+                out[base + c - 1] -= if restart { 1.0 } else { u };
+            }
+            if restart {
+                // v = L_next·u + clip·(1 − u) in absolute levels: the offset takes part only by u
+                out[i] -= 1.0 - u;
+            }
+        }
+        let mut col = self.n_levels();
+        let _ = base;
+        if cfg.tau_free && !self.prior {
+            for &s in &active {
+                let sg = &tr.segs[s];
+                // a jump (faster than one sample) has no shape to correct
+                if cfg.fixed(i, s).is_some() || is_jump(tr, sg) {
+                    continue;
+                }
+                let dv = hat.level_of(sg.load) - hat.level_of(sg.prev);
+                // −∂/∂ln τ of dv·rise: the coefficient is −Δ ln τ
+                if sg.input.ramp_s > 0.0 {
+                    // a ramped load's response: its derivatives by central differences
+                    out[col + sg.key] -= dv * ramp_dln_tau(t, sg.t0, sg.tau, h, sg.input);
+                    if let Some(q) = self.refit_onset.iter().position(|&k| k == (i, s)) {
+                        out[col + self.n_keys + q] = dv * ramp_dt0(t, sg.t0, sg.tau, h, sg.input);
+                    }
+                } else if self.exact_shape {
+                    // −∂/∂ln τ and ∂/∂t0 of dv·rise: the coefficients are −Δ ln τ and the onset's
+                    // shift (s)
+                    out[col + sg.key] -= dv * rise_dln_tau(t, sg.t0, sg.tau, h);
+                    if let Some(q) = self.refit_onset.iter().position(|&k| k == (i, s)) {
+                        out[col + self.n_keys + q] = dv * rise_dt0(t, sg.t0, sg.tau, h);
+                    }
+                } else {
+                    // the point value's derivatives, continued over the filtered span before the
+                    // onset (as the selection rules were set)
+                    let x = (t - sg.t0) / sg.tau;
+                    if x <= SETTLED {
+                        out[col + sg.key] += dv * x * (-x).exp();
+                        if let Some(q) = self.refit_onset.iter().position(|&k| k == (i, s)) {
+                            out[col + self.n_keys + q] = -dv * (-x).exp() / sg.tau;
+                        }
+                    }
+                }
+            }
+            col += self.n_keys + self.refit_onset.len();
+        }
+        // the catalogue's terms start where a step's load has landed (a ramp's end): the steps on
+        // their ramp are not theirs yet
+        // (the steps are in time order: those still on their ramp are the last of the active)
+        let on_ramp = active.iter().rev().take_while(|&&s| tr.segs[s].input.ramp_s > 0.0 && t + h < cfg.t0_of(i, s, &tr.segs[s])).count();
+        let landed = &active[..active.len() - on_ramp];
+        let cur = landed.last().copied();
+        let steps = TrialSteps { i, tr, cfg, hat, l0: hat.level_of(self.loads[0]), top: hat.max_level() };
+        for e in &cfg.effects {
+            match e {
+                Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
+                Effect::Hysteresis => out[col] = cur.map(|s| catalogue::hysteresis::column(&steps, s, t)).unwrap_or(0.0),
+                Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, landed, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
+                Effect::BaselineDrift => out[col] = catalogue::baseline_drift::column(t, tr.t[0], cfg.drift_tau),
+                Effect::Relaxation => {
+                    if let Some(rx) = &cfg.relax {
+                        relax_columns(i, tr, &steps, t, rx, &mut out[col..col + rx.cols()]);
+                    }
+                }
+                Effect::Saturation | Effect::HandlingSpikes | Effect::RestRelaxation => {}
+            }
+            col += effect_cols(*e, cfg);
+        }
+        // a trial's gain scales its steps as the shared levels give them (two-stage: the levels
+        // from the fit before), to second order in the level: a gain of the sensor's conductance
+        // reaches the output through the read-out's curve (a divider compresses the top levels);
+        // the shared levels carry the trials' mean gain (a faint ridge on the gains, see
+        // solve_normal)
+        if self.n_gains(cfg) > 0 {
+            let top = steps.top - steps.l0;
+            for &s in &active {
+                let sg = &tr.segs[s];
+                let (a, b) = (hat.level_of(sg.load) - steps.l0, hat.level_of(sg.prev) - steps.l0);
+                let u = rise(t, steps.t0(s), steps.tau(s), h, sg.input);
+                out[col + GAIN_COLS * i] += (a - b) * u;
+                if top != 0.0 {
+                    out[col + GAIN_COLS * i + 1] += (a * a - b * b) / top * u;
+                }
+            }
+        }
+        if let (Some(tau), true) = (cfg.rest_tau, self.n_rests(cfg) > 0) {
+            out[self.rest_col(cfg) + i] = catalogue::decay((t - tr.t[0]).max(0.0) / tau);
+        }
+    }
+}
+
+/// Columns of one trial's gain: the change of level, and of its square (over the top level).
+pub(super) const GAIN_COLS: usize = 2;
+
+/// One trial's steps as the catalogue's terms see them.
+pub(super) struct TrialSteps<'a> {
+    pub(super) i: usize,
+    pub(super) tr: &'a Trial,
+    pub(super) cfg: &'a Config,
+    pub(super) hat: &'a Hat,
+    pub(super) l0: f64,
+    pub(super) top: f64,
+}
+
+impl Steps for TrialSteps<'_> {
+    fn t0(&self, q: usize) -> f64 {
+        self.cfg.t0_of(self.i, q, &self.tr.segs[q])
+    }
+    fn tau(&self, q: usize) -> f64 {
+        self.cfg.tau_of(self.i, q, &self.tr.segs[q])
+    }
+    fn dv(&self, q: usize) -> f64 {
+        let sg = &self.tr.segs[q];
+        self.hat.level_of(sg.load) - self.hat.level_of(sg.prev)
+    }
+    fn level(&self, q: usize) -> f64 {
+        self.hat.level_of(self.tr.segs[q].load) - self.l0
+    }
+    fn below_top(&self, q: usize) -> f64 {
+        self.top - self.hat.level_of(self.tr.segs[q].load)
+    }
+    fn unloading(&self, q: usize) -> bool {
+        self.tr.segs[q].phase == Phase::Unloading
+    }
+    fn after_peak(&self, q: usize) -> bool {
+        // a step of a later cycle: an earlier step of this trial reached its highest load (loads,
+        // not levels: a read-out whose level falls with the load has its top level at no load)
+        self.unloading(q) || {
+            let top = self.tr.segs.iter().map(|sg| sg.load).fold(f64::NEG_INFINITY, f64::max);
+            self.tr.segs[..q].iter().any(|sg| sg.load >= top)
+        }
+    }
+}
+
+/// Design columns of a catalogue term.
+pub(super) fn effect_cols(e: Effect, cfg: &Config) -> usize {
+    match e {
+        Effect::Saturation | Effect::HandlingSpikes | Effect::RestRelaxation => 0,
+        Effect::SecondTimeConstant => cfg.drive.columns(),
+        Effect::Relaxation => cfg.relax.as_ref().map(|r| r.cols()).unwrap_or(0),
+        _ => 1,
+    }
+}
+
+/// The constant part of the steps that restart at the clip: clip·(1 − u) each.
+pub(super) fn clip_offset(i: usize, tr: &Trial, t: f64, cfg: &Config) -> f64 {
+    let Some(c) = cfg.clip else { return 0.0 };
+    cfg.restart
+        .iter()
+        .filter(|(k, _)| *k == i)
+        .map(|&(_, s)| {
+            let sg = &tr.segs[s];
+            // as the design row: active from t + h ≥ t0 (less a ramp), with the filtered-sample
+            // average of u
+            if t + tr.half_span_s >= cfg.t0_of(i, s, sg) - sg.input.ramp_s {
+                c * (1.0 - rise(t, cfg.t0_of(i, s, sg), cfg.tau_of(i, s, sg), tr.half_span_s, sg.input))
+            } else {
+                0.0
+            }
+        })
+        .sum()
+}
+
+pub(super) fn usable(tr: &Trial, j: usize, cfg: &Config) -> bool {
+    match cfg.clip {
+        Some(c) => tr.v[j] < c - tr.clip_margin.max(0.5 * tr.sigma).max(1e-12),
+        None => true,
+    }
+}
+
+pub(super) fn predict(d: &Design, i: usize, tr: &Trial, t: f64, x: &[f64], cfg: &Config, hat: &Hat, buf: &mut Vec<f64>) -> f64 {
+    d.row(i, tr, t, cfg, hat, buf);
+    let v: f64 = buf.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() + tr.prior(t) + clip_offset(i, tr, t, cfg);
+    match cfg.clip {
+        Some(c) => v.min(c),
+        None => v,
+    }
+}
+
+pub(super) fn all_rows(trials: &[Trial]) -> Vec<(usize, usize)> {
+    trials.iter().enumerate().flat_map(|(i, tr)| (0..tr.t.len()).map(move |j| (i, j))).collect()
+}
+
+/// Index of a term's first column in the design.
+pub(super) fn term_col(d: &Design, cfg: &Config, e: Effect) -> usize {
+    d.n_levels() + d.n_shape(cfg) + cfg.effects.iter().take_while(|x| **x != e).map(|x| effect_cols(*x, cfg)).sum::<usize>()
+}
+
+/// A sample beside a jump (a step faster than one sample): where within the sample interval the
+/// load landed is unknown, so the samples from one interval before its onset to one and a half
+/// after are not scored held out.
+pub(super) fn at_jump(tr: &Trial, t: f64) -> bool {
+    let dt = sample_interval(tr);
+    tr.segs.iter().any(|s| s.tau < dt && t >= s.t0 - dt && t <= s.t0 + 1.5 * dt)
+}
+
+/// A step faster than one sample (its τ set by [`crate::sensor::fit::JUMP_TAU_SHARE`]).
+pub(super) fn is_jump(tr: &Trial, sg: &Seg) -> bool {
+    sg.tau < sample_interval(tr)
+}
+
+pub(super) fn sample_interval(tr: &Trial) -> f64 {
+    let n = tr.t.len();
+    if n < 2 {
+        return f64::INFINITY;
+    }
+    (tr.t[n - 1] - tr.t[0]) / (n - 1) as f64
+}

@@ -1,0 +1,346 @@
+//! What the diagnosis reports: its public types (`Diagnosis` and its parts), a term's parameters
+//! in the fitted model, the findings reported but not modelled (a clipped plateau, handling
+//! spikes), the units' errors and the improved model's first-order part.
+
+use super::*;
+
+/// A term's parameters in the fitted model (the coefficients of its columns and its shape).
+pub(super) fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Hat) -> serde_json::Value {
+    let k = term_col(d, c, e);
+    // the terms scale with the model's levels: their sizes in the response unit, for the change
+    // from zero load to the highest load
+    let span = hat.max_level() - hat.level_of(d.loads[0]);
+    let at = |i: usize| x.get(i).copied().unwrap_or(f64::NAN);
+    match e {
+        Effect::Creep => serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span}),
+        Effect::Hysteresis => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span}),
+        Effect::RestRelaxation => {
+            let r0 = d.rest_col(c);
+            serde_json::json!({"tau_s": c.rest_tau, "amplitude_at_start_by_trial": (0..d.n_rests(c)).map(|q| at(r0 + q)).collect::<Vec<_>>()})
+        }
+        Effect::SecondTimeConstant if c.drive == Drive::Size => {
+            serde_json::json!({"drive": c.drive.label(), "after_loading_fraction": at(k), "after_unloading_fraction": at(k + 1), "tau2_s": c.tau2, "jump_after_loading_full_change": at(k) * span.abs(), "jump_after_unloading_full_change": at(k + 1) * span.abs()})
+        }
+        Effect::SecondTimeConstant => serde_json::json!({"drive": c.drive.label(), "fraction": at(k), "tau2_s": c.tau2}),
+        Effect::BaselineDrift => match c.drift_tau {
+            Some(tau) => serde_json::json!({"form": "exponential warm-up", "initial_rate_per_s": at(k), "warmup_tau_s": tau, "amplitude": at(k) * tau}),
+            None => serde_json::json!({"rate_per_s": at(k)}),
+        },
+        Effect::Saturation => serde_json::json!({"level": c.clip}),
+        Effect::HandlingSpikes => serde_json::json!({}),
+        Effect::Relaxation => {
+            let Some(rx) = &c.relax else { return serde_json::json!({}) };
+            let n = rx.taus.len();
+            let amps: Vec<f64> = (0..2 * n).map(|j| at(k + j)).collect();
+            let shape = catalogue::relaxation::name(&rx.taus, &amps);
+            let (peak_l, share_l) = catalogue::relaxation::peak(&rx.taus, &amps[..n]);
+            let (peak_u, share_u) = catalogue::relaxation::peak(&rx.taus, &amps[n..]);
+            let mut v = serde_json::json!({
+                "shape": match shape { catalogue::relaxation::Shape::Creep => "broad band (creep)", catalogue::relaxation::Shape::SecondTimeConstant => "one narrow peak (second time constant)", catalogue::relaxation::Shape::ChangeDriven => "one sign after loading and unloading (change-driven)" },
+                "tau_s": rx.taus,
+                "after_loading_per_unit_change": &amps[..n],
+                "after_unloading_per_unit_change": &amps[n..],
+                "peak_tau_after_loading_s": peak_l, "peak_share_after_loading": share_l,
+                "peak_tau_after_unloading_s": peak_u, "peak_share_after_unloading": share_u,
+                "penalty": rx.lambda,
+                "first_order_share_after_loading": if rx.own_tau { at(k + rx.sets() * n) } else { 0.0 }, "first_order_share_after_unloading": if rx.own_tau { at(k + rx.sets() * n + 1) } else { 0.0 },
+            });
+            // the spectrum's own ramp, or (an actuator's) the steps' own ramps it is driven by
+            if rx.by_steps {
+                v["driven_by_the_steps_ramps"] = serde_json::json!(true);
+            } else {
+                v["ramp_s"] = serde_json::json!(rx.ramp_s);
+                v["ramp_end_after_logged_change_s"] = serde_json::json!(rx.end_s);
+            }
+            v
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Window {
+    pub recording: String,
+    pub start_s: f64,
+    pub end_s: f64,
+    /// What the window was flagged for and its value (residual RMS / noise, lag-1 autocorrelation).
+    pub statistic: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Term {
+    pub name: String,
+    pub params: serde_json::Value,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Finding {
+    pub effect: &'static str,
+    pub confidence: &'static str,
+    pub explanation: String,
+    pub windows: Vec<Window>,
+    pub term: Term,
+    pub heldout_rmse_before: f64,
+    pub heldout_rmse_after: f64,
+    pub delta_bic: f64,
+    /// Other effects whose terms, in this one's place, explain the same residual about as well on
+    /// this data (the drop-one test of `alternatives`); empty when the name stands alone.
+    pub alternatives: Vec<Alternative>,
+    /// With alternatives: the sentence that says the recording cannot tell them apart.
+    pub ambiguity: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Baseline {
+    pub model: String,
+    pub rmse: f64,
+    pub heldout_rmse: f64,
+    pub bic: f64,
+    /// The load's ramp the first-order steps are driven by (an actuator's recordings: chosen
+    /// once per data set by the baseline's held-out RMSE); absent when the load changes at once.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub load_ramp: Option<crate::sensor::preprocess::Ramp>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Unexplained {
+    pub flag: bool,
+    pub evidence: Vec<String>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Final {
+    pub effects: Vec<&'static str>,
+    pub rmse: f64,
+    pub heldout_rmse: f64,
+    /// Held-out units (a trial's hold, or one step of a single recording) the improved model
+    /// predicts better than the baseline, of those scored by both.
+    pub units_better: usize,
+    pub units_scored: usize,
+    /// The held-out RMSE of every unit, baseline and improved.
+    pub heldout_by_unit: Vec<UnitError>,
+    /// The improved model's first-order part (what a twin is calibrated from): the level at every
+    /// load (the trials' mean offset plus the shared level), and every step's refitted time
+    /// constant with the load it goes to. Empty with a simulator baseline.
+    pub levels: Vec<[f64; 2]>,
+    pub taus: Vec<[f64; 2]>,
+}
+
+/// One held-out unit's error: the hold from `start_s` (the step's onset; the trial's start for
+/// the rest before its first step) of one recording.
+#[derive(Debug, Clone, Serialize)]
+pub struct UnitError {
+    pub recording: String,
+    pub start_s: f64,
+    pub baseline_rmse: f64,
+    pub improved_rmse: f64,
+}
+
+/// The units both scores hold, each with its start and both errors.
+pub(super) fn unit_errors(trials: &[Trial], base: &Score, cur: &Score) -> Vec<UnitError> {
+    let rmse = |s: &Score, k: &(usize, usize)| s.unit_keys.iter().position(|x| x == k).map(|i| (s.units[i] / s.unit_n.get(i).copied().unwrap_or(1).max(1) as f64).sqrt());
+    cur.unit_keys
+        .iter()
+        .filter_map(|k| {
+            let tr = trials.get(k.0)?;
+            // multi-trial units count segments from 1 at the first onset; a single recording's
+            // units are its steps from 0
+            let seg = if trials.len() >= 2 {
+                k.1.checked_sub(1)
+            } else if cur.blocks > 0 {
+                k.1.checked_sub(1).map(|x| x / cur.blocks)
+            } else {
+                Some(k.1)
+            };
+            let start_s = seg.and_then(|s| tr.segs.get(s)).map(|s| s.t0).unwrap_or(tr.t.first().copied().unwrap_or(0.0));
+            Some(UnitError { recording: tr.name.clone(), start_s, baseline_rmse: rmse(base, k)?, improved_rmse: rmse(cur, k)? })
+        })
+        .collect()
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Decision {
+    pub step: usize,
+    pub candidate: &'static str,
+    pub heldout_rmse: f64,
+    pub gain: f64,
+    /// Paired z of the held-out improvement over units.
+    pub z: f64,
+    pub delta_bic: f64,
+    pub accepted: bool,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Diagnosis {
+    pub schema: &'static str,
+    pub recordings: Vec<String>,
+    pub unit: String,
+    pub baseline: Baseline,
+    pub findings: Vec<Finding>,
+    pub unexplained: Unexplained,
+    #[serde(rename = "final")]
+    pub final_: Final,
+    /// Every selection decision with its numbers (the stop rule: gain ≥ MIN_GAIN and ΔBIC ≤ MIN_DBIC).
+    pub decisions: Vec<Decision>,
+    /// Where the baseline fails, before any term is chosen: each catalogue signature's windows and
+    /// the whiteness test's, each with its statistic.
+    pub located: Vec<LocatedWindow>,
+    /// What the baseline's own fits say about themselves: steps whose fitted τ describes creep
+    /// (of the order of the hold, or slower than the jump it follows).
+    pub notes: Vec<String>,
+    /// Nuisances of the set-up the improved model carries (per-trial gains), with their evidence.
+    pub nuisances: Vec<NuisanceTerm>,
+    #[serde(skip)]
+    pub predictions: Vec<Prediction>,
+    /// For each finding whose name does not stand alone: the recording that would separate the
+    /// names, with both predicted (issue 16, item 2; set by `cli::diagnose` through `advice`).
+    pub advice: Vec<Advice>,
+    /// Why an ambiguous finding got no advice.
+    pub advice_notes: Vec<String>,
+}
+
+/// A window where the baseline fails, with the test that flagged it.
+#[derive(Debug, Clone, Serialize)]
+pub struct LocatedWindow {
+    /// The test: an effect's signature ("creep", …) or "whiteness".
+    pub test: &'static str,
+    pub recording: String,
+    pub start_s: f64,
+    pub end_s: f64,
+    pub statistic: String,
+}
+
+/// The most rows a prediction file holds: a longer recording's predictions are given at every
+/// stride-th sample.
+pub const MAX_PREDICTION_ROWS: usize = 1_000_000;
+
+/// Per recording, per sample (every `stride`-th): measured, baseline and improved predictions.
+#[derive(Debug, Clone)]
+pub struct Prediction {
+    pub stem: String,
+    pub time_s: Vec<f64>,
+    pub measured: Vec<f64>,
+    pub baseline: Vec<f64>,
+    pub improved: Vec<f64>,
+    pub windows: Vec<(f64, f64)>,
+    /// Samples of the (working-rate) recording per row.
+    pub stride: usize,
+    /// Each modelled term's contribution to the improved prediction at these samples (the
+    /// prediction minus the same model with that term's coefficients at zero), with its name.
+    pub contributions: Vec<(&'static str, Vec<f64>)>,
+}
+
+/// The findings that are reported, not modelled: a clipped plateau the free levels absorbed (the
+/// plateau is its own evidence: samples piled at one value with no noise on them), and handling
+/// spikes (excluded from every fit; their held-out numbers are the baseline's on the data as given
+/// and without them).
+pub(super) fn reported_only(trials: &[Trial], cur: &Config, cur_score: &Score, clip: Option<f64>, report: &Report, (base, clean): (&Score, &Score)) -> Vec<Finding> {
+    let mut out = Vec::new();
+    // saturation the free levels absorbed: the clipped plateau is its own evidence (samples piled
+    // at one value with no noise on them)
+    if let (Some(level), false) = (clip, cur.effects.contains(&Effect::Saturation)) {
+        let windows = signature(Effect::Saturation, &[], trials, clip, report);
+        if !windows.is_empty() {
+            out.push(Finding {
+                effect: Effect::Saturation.name(),
+                confidence: "medium",
+                explanation: format!(
+                    "{}; the per-load levels absorb the clip, so held-out prediction cannot improve: the evidence is the plateau itself",
+                    Effect::Saturation.explanation()
+                ),
+                windows,
+                term: Term { name: "saturation_term".into(), params: serde_json::json!({"level": level}) },
+                heldout_rmse_before: cur_score.heldout_rmse,
+                heldout_rmse_after: cur_score.heldout_rmse,
+                delta_bic: 0.0,
+                alternatives: vec![],
+                ambiguity: None,
+            });
+        }
+    }
+    // handling spikes: reported and excluded, never modelled
+    let spikes = signature(Effect::HandlingSpikes, &[], trials, clip, report);
+    if !spikes.is_empty() {
+        let n_spikes = spikes.len();
+        out.push(Finding {
+            effect: Effect::HandlingSpikes.name(),
+            confidence: if spikes.len() >= 2 { "high" } else { "medium" },
+            explanation: Effect::HandlingSpikes.explanation().to_string(),
+            windows: spikes,
+            term: Term { name: "excluded".into(), params: serde_json::json!({"windows_excluded": n_spikes}) },
+            heldout_rmse_before: base.heldout_rmse,
+            heldout_rmse_after: clean.heldout_rmse,
+            delta_bic: clean.bic - base.bic,
+            alternatives: vec![],
+            ambiguity: None,
+        });
+    }
+    out
+}
+
+/// The first-order part of a solved model: (load, level) for every load (the trials' mean offset
+/// plus the shared level) and (load, τ) for every step.
+pub(super) fn first_order_part(d: &Design, cfg: &Config, x: &[f64], trials: &[Trial]) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+    let n = d.n_trials;
+    let offset = x.iter().take(n).sum::<f64>() / n.max(1) as f64;
+    let levels = d.loads.iter().enumerate().map(|(j, &l)| [l, offset + if j == 0 { 0.0 } else { x.get(n + j - 1).copied().unwrap_or(f64::NAN) }]).collect();
+    // τ as the model has it: a clip's fixed τ, or the step's τ with its shape correction
+    // (coefficient −Δ ln τ); a jump (faster than a sample) has no τ to tell
+    let taus = trials
+        .iter()
+        .enumerate()
+        .flat_map(|(i, tr)| {
+            tr.segs.iter().enumerate().filter(|(_, sg)| !is_jump(tr, sg)).map(move |(s, sg)| {
+                let mut tau = cfg.tau_of(i, s, sg);
+                if cfg.tau_free && !d.prior && cfg.fixed(i, s).is_none() {
+                    tau *= (-x.get(d.n_levels() + sg.key).copied().unwrap_or(0.0)).exp();
+                }
+                [sg.load, tau]
+            })
+        })
+        .collect();
+    (levels, taus)
+}
+
+// The advice's data (computed by `sensor::advice`, which reads the diagnosis; kept here so the
+// diagnosis names no module downstream of it).
+
+/// One protocol change and the separation it gives.
+#[derive(Debug, Clone, Serialize)]
+pub struct Candidate {
+    pub change: &'static str,
+    pub duration_s: f64,
+    pub separation_sigma: f64,
+    /// RMS of the difference between the two predicted signals, in the response unit.
+    pub rms_difference: f64,
+}
+
+/// The advice for one ambiguous finding.
+#[derive(Debug, Clone, Serialize)]
+pub struct Advice {
+    /// Index of the finding in `findings`.
+    pub finding: usize,
+    pub effect: &'static str,
+    pub alternative: &'static str,
+    /// The advised change (one of the candidates).
+    pub change: &'static str,
+    pub sentence: String,
+    /// The advised protocol, relative to the output folder.
+    pub protocol_file: String,
+    pub plot: String,
+    /// The expected paired z between the two names on the advised protocol and on the recording's own.
+    pub separation_sigma: f64,
+    pub separation_sigma_now: f64,
+    /// The paired z by which the named model predicted the recording's held-out units better than
+    /// the alternative (what the recording itself showed).
+    pub z_observed: f64,
+    /// The held-out RMSE each name is expected to reach on the advised recording when the other
+    /// is true (√(σ² + mean squared difference)), against σ when it is the true one.
+    pub heldout_rmse_if_right: f64,
+    pub heldout_rmse_if_wrong: f64,
+    pub candidates: Vec<Candidate>,
+    #[serde(skip)]
+    pub protocol_toml: String,
+    /// Time, load (g), the named and the alternative's predictions on the advised protocol.
+    #[serde(skip)]
+    pub curves: [Vec<f64>; 4],
+}

@@ -1,0 +1,151 @@
+//! The catalogue's terms as candidates of the model: each effect added to a configuration with its
+//! shape parameters chosen on the training fit (τ2 and drive of a second relaxation, a warm-up's τ,
+//! a clip), or removed with them.
+
+use super::*;
+
+/// The second time constant's candidates, in multiples of the steps' median τ (a geometric grid).
+pub(super) const TAU2_STEP: f64 = 1.371;
+pub(super) const TAU2_GRID: [f64; 9] = [2.0, 2.742, 3.759, 5.154, 7.067, 9.689, 13.28, 18.21, 24.97];
+
+/// τ2 of the second relaxation refined by golden-section search in log τ2 within one grid step
+/// either side of the chosen value, on the training BIC (the number of parameters is the same
+/// throughout, so this is the training RSS). Returns the refined configuration and its score.
+pub(super) fn refine_tau2(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Config, Score, Vec<f64>)> {
+    let at = |ln_tau2: f64| {
+        let mut c = cfg.clone();
+        c.tau2 = ln_tau2.exp();
+        train_bic(d, trials, &c, hat).map(|(b, _)| b).unwrap_or(f64::INFINITY)
+    };
+    // 10 steps shrink the bracket to 0.8 % of a grid step (0.3 % in τ2)
+    let br = crate::sensor::golden::golden(at, cfg.tau2.ln() - TAU2_STEP.ln(), cfg.tau2.ln() + TAU2_STEP.ln(), 10, 0.0);
+    let (best, f_best) = br.best();
+    let base = at(cfg.tau2.ln());
+    if f_best >= base {
+        return None;
+    }
+    let mut c = cfg.clone();
+    c.tau2 = best.exp();
+    let (s, x) = score(d, trials, &c, hat)?;
+    Some((c, s, x))
+}
+
+/// What the forward step needs to propose a term: the design, the trials, the levels, the clip
+/// and the median first-order τ (the second relaxation's grid is relative to it).
+pub(super) struct Ctx<'a> {
+    pub(super) d: &'a Design,
+    pub(super) trials: &'a [Trial],
+    pub(super) hat: &'a Hat,
+    pub(super) clip: Option<f64>,
+    pub(super) clip_steps: &'a ClipSteps,
+    pub(super) med_tau: f64,
+}
+
+/// The model `cur` with effect `e` added, its shape parameters chosen on the training fit (not on
+/// held-out data): the second relaxation's τ2 and drive on their grid, a clip at the recording's
+/// level, a rest relaxation's τ; a second relaxation already in the model has its τ2 refitted.
+pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
+    let (d, trials, hat, clip, clip_steps, med_tau) = (ctx.d, ctx.trials, ctx.hat, ctx.clip, ctx.clip_steps, ctx.med_tau);
+    let cands: Vec<Config> = match e {
+        Effect::RestRelaxation => nuisance::rest_candidates(d, trials, cur),
+        Effect::SecondTimeConstant => [Drive::Change, Drive::Size]
+            .iter()
+            .flat_map(|&drive| TAU2_GRID.iter().map(move |m| (drive, m)))
+            .map(|(drive, m)| {
+                let mut c = cur.clone();
+                c.effects.push(e);
+                c.tau2 = m * med_tau;
+                c.drive = drive;
+                c
+            })
+            .collect(),
+        Effect::BaselineDrift => {
+            // linear, or a warm-up on a log grid of τ up to the longest trial (a longer one is a
+            // line over the recording)
+            let longest = trials.iter().map(Trial::span_s).fold(0.0, f64::max);
+            std::iter::once(None)
+                .chain(catalogue::baseline_drift::WARMUP_TAUS_S.iter().filter(|&&tau| tau <= longest).map(|&tau| Some(tau)))
+                .map(|tau| {
+                    let mut c = cur.clone();
+                    c.effects.push(e);
+                    c.drift_tau = tau;
+                    c
+                })
+                .collect()
+        }
+        Effect::Saturation => {
+            let mut c = cur.clone();
+            c.effects.push(e);
+            c.clip = clip;
+            c.tau_fixed = clip.map(|level| clip_fixes(trials, level, clip_steps)).unwrap_or_default();
+            c.restart = clip_steps.from.clone();
+            vec![c]
+        }
+        _ => {
+            let mut c = cur.clone();
+            c.effects.push(e);
+            vec![c]
+        }
+    };
+    // shape parameters are chosen on the training fit (not on held-out data)
+    let mut pick: Option<(Config, f64)> = None;
+    for c in cands {
+        if let Some((b, xc)) = train_bic(d, trials, &c, hat) {
+            // a response to the size of the change has one sign after loading and
+            // unloading alike; opposite signs are the change's own (signed) relaxation
+            if e == Effect::SecondTimeConstant && c.drive == Drive::Size {
+                let k = term_col(d, &c, e);
+                if xc[k] * xc[k + 1] <= 0.0 {
+                    continue;
+                }
+            }
+            if pick.as_ref().is_none_or(|p| b < p.1) {
+                pick = Some((c, b));
+            }
+        }
+    }
+    let (mut c, mut b0) = pick?;
+    // a second relaxation already in the model: its τ2 is refitted with the new term (a
+    // term left out biases it — drift lengthens τ2), by a local search on the grid
+    if e != Effect::SecondTimeConstant && c.effects.contains(&Effect::SecondTimeConstant) {
+        loop {
+            let mut moved = false;
+            for f in [1.0 / TAU2_STEP, TAU2_STEP] {
+                let mut cand = c.clone();
+                cand.tau2 *= f;
+                if cand.tau2 < TAU2_GRID[0] * med_tau * 0.99 || cand.tau2 > TAU2_GRID[TAU2_GRID.len() - 1] * med_tau * 1.01 {
+                    continue;
+                }
+                if let Some((b, _)) = train_bic(d, trials, &cand, hat) {
+                    if b < b0 {
+                        (c, b0, moved) = (cand, b, true);
+                        break;
+                    }
+                }
+            }
+            if !moved {
+                break;
+            }
+        }
+    }
+    Some(c)
+}
+
+/// The model `cur` without its `idx`-th effect (a clip's fixed steps and a rest relaxation's τ
+/// go with it).
+pub(super) fn without(cur: &Config, idx: usize) -> Config {
+    let mut c = cur.clone();
+    let e = c.effects.remove(idx);
+    if e == Effect::Saturation {
+        c.clip = None;
+        c.tau_fixed.clear();
+        c.restart.clear();
+    }
+    if e == Effect::RestRelaxation {
+        c.rest_tau = None;
+    }
+    if e == Effect::BaselineDrift {
+        c.drift_tau = None;
+    }
+    c
+}
