@@ -69,12 +69,7 @@ pub const MIN_PRELOAD_GAIN: f64 = 0.10;
 /// recordings best with its score: a coarse grid over 0 to max(200 g, 4 × given, the largest
 /// load), then golden section around the best point (on the fit RMSE; held-out decides above).
 pub(super) fn preload_search(recs: &[Recording], opts: &Options, sb: &SimBaseline) -> Option<(Score, f64, Score)> {
-    let score_at = |p: f64| -> Option<Score> {
-        match run(recs, opts, Some(&SimBaseline { sensor: sb.sensor, preload_g: p }), false, true)? {
-            Outcome::Baseline(s) => Some(s),
-            _ => None,
-        }
-    };
+    let score_at = |p: f64| -> Option<Score> { build(recs, opts, Some(&SimBaseline { sensor: sb.sensor, preload_g: p })).map(|b| b.base) };
     let given = score_at(sb.preload_g)?;
     let kind = recs.first()?.protocol_kind;
     let top = recs.iter().flat_map(|r| r.protocol.iter().filter_map(|&x| kind.grams(x))).fold(0.0f64, f64::max);
@@ -97,4 +92,125 @@ pub(super) fn preload_search(recs: &[Recording], opts: &Options, sb: &SimBaselin
     let best = 0.5 * (a + b);
     let s = score_at(best)?;
     Some((given, best, s))
+}
+
+/// The baseline as built and scored: the trials, the design, the levels the terms are built on,
+/// and the baseline's configuration, fit and score.
+pub(super) struct Built {
+    pub(super) report: Report,
+    pub(super) trials: Vec<Trial>,
+    pub(super) d: Design,
+    /// The levels per load from a first fit (or the simulator's).
+    pub(super) hat: Hat,
+    pub(super) base_cfg: Config,
+    /// The trials the baseline is scored on (the steps of the series as given, without its spikes)
+    /// and fitted to (the series as given).
+    pub(super) base_eval: Vec<Trial>,
+    pub(super) base_fit: Vec<Trial>,
+    pub(super) base: Score,
+    pub(super) xb: Vec<f64>,
+    pub(super) has_spikes: bool,
+}
+
+/// Stage 1, the baseline: part 1's per-step fits as trials, the design over their loads, the levels
+/// per load, and the paper's model (first-order steps with their levels and time constants
+/// refitted jointly) fitted to the series as given and scored held out.
+pub(super) fn build(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Built> {
+    let (report, prep) = analyze::analyze(recs, opts);
+    let mut trials = trials_from(&report, &prep, recs, opts);
+    // the baseline is the paper's model fitted to the data as given: with handling spikes found,
+    // its steps (onsets, time constants) are the part-1 fits of the series with the spikes left in
+    let has_spikes = report.recordings.iter().any(|r| !r.spikes.is_empty());
+    let mut given_trials: Option<Vec<Trial>> = if has_spikes { given_trials(recs, opts, &trials) } else { None };
+    if let Some(sb) = sim {
+        for tr in trials.iter_mut().chain(given_trials.iter_mut().flatten()) {
+            simulated_steps(recs, sb, tr)?;
+        }
+    }
+    let d = design(&report, &trials, sim.is_some())?;
+    let hat = levels(recs, sim, &d, &trials)?;
+    let base_cfg = Config::first_order();
+    // fitted to the series as given (with the steps fitted to it), scored on the series without
+    // the spikes (with the same steps); the diagnosis works on the latter, and the spikes are
+    // reported and excluded
+    let base_eval: Vec<Trial> = match &given_trials {
+        Some(g) => trials.iter().zip(g).map(|(tr, gt)| Trial { segs: gt.segs.clone(), ..tr.clone() }).collect(),
+        None => trials.clone(),
+    };
+    let base_fit: Vec<Trial> =
+        if has_spikes { base_eval.iter().map(|tr| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), ..tr.clone() }).collect() } else { base_eval.clone() };
+    let (base, xb) = score_on(&d, &base_fit, &base_eval, &base_cfg, &hat)?;
+    Some(Built { report, trials, d, hat, base_cfg, base_eval, base_fit, base, xb, has_spikes })
+}
+
+/// The trials as part 1 fits the series as given (handling spikes left in), when their steps are
+/// the same steps as `trials`'.
+fn given_trials(recs: &[Recording], opts: &Options, trials: &[Trial]) -> Option<Vec<Trial>> {
+    let mut o = opts.clone();
+    o.pre.handling = false;
+    let (rep_g, prep_g) = analyze::analyze(recs, &o);
+    let g = trials_from(&rep_g, &prep_g, recs, opts);
+    let same = g.len() == trials.len() && g.iter().zip(trials).all(|(a, b)| a.segs.len() == b.segs.len() && a.segs.iter().zip(&b.segs).all(|(x, y)| x.key == y.key));
+    same.then_some(g)
+}
+
+/// A trial's steps as the simulator predicts them for its logged protocol (at the onsets found in
+/// the data): its level before the first step, and each step's change and time constant.
+fn simulated_steps(recs: &[Recording], sb: &SimBaseline, tr: &mut Trial) -> Option<()> {
+    let kind = recs.first()?.protocol_kind;
+    let force = |load: f64| kind.grams(load).map(|g| (g + sb.preload_g) / 1000.0 * crate::sensor::sim::G_N_PER_KG);
+    let f0 = force(tr.segs.first().map(|s| s.prev).unwrap_or(0.0))?;
+    tr.prior0 = Some(sb.sensor.v_eq(f0));
+    for sg in &mut tr.segs {
+        let (fa, fb) = (force(sg.load)?, force(sg.prev)?);
+        sg.sim = Some((sb.sensor.v_eq(fa) - sb.sensor.v_eq(fb), sb.sensor.tau(fa)));
+        sg.tau = sb.sensor.tau(fa);
+    }
+    Some(())
+}
+
+/// The design over the trials' loads and step keys; None with fewer than two loads.
+fn design(report: &Report, trials: &[Trial], prior: bool) -> Option<Design> {
+    let mut loads: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().flat_map(|s| [s.load, s.prev])).collect();
+    loads.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    loads.dedup();
+    if loads.len() < 2 {
+        return None;
+    }
+    let n_keys = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.key + 1)).max().unwrap_or(0);
+    // steps whose edge lost a handling spike: their onsets are refitted with the shared levels
+    let refit_onset: Vec<(usize, usize)> = trials
+        .iter()
+        .enumerate()
+        .flat_map(|(k, tr)| {
+            let spikes = report.recordings.iter().find(|r| r.source == tr.name).map(|r| r.spikes.clone()).unwrap_or_default();
+            tr.segs
+                .iter()
+                .enumerate()
+                .filter(move |(_, sg)| spikes.iter().any(|w| w.end_s >= sg.t0 - 0.5 && w.start_s <= sg.t0 + 1.0))
+                .map(move |(s, _)| (k, s))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    Some(Design { loads, n_trials: trials.len(), n_keys, refit_onset, prior, exact_shape: false })
+}
+
+/// The levels per load the terms are built on (two-stage): from a first fit with the part-1 time
+/// constants, or the simulator's.
+fn levels(recs: &[Recording], sim: Option<&SimBaseline>, d: &Design, trials: &[Trial]) -> Option<Hat> {
+    let loads = &d.loads;
+    let level = match sim {
+        Some(sb) => {
+            let kind = recs[0].protocol_kind;
+            loads.iter().map(|&l| kind.grams(l).map(|g| sb.sensor.v_eq((g + sb.preload_g) / 1000.0 * crate::sensor::sim::G_N_PER_KG)).unwrap_or(0.0)).collect()
+        }
+        None => {
+            let level_cfg = Config { tau_free: false, ..Config::first_order() };
+            let x0 = solve(d, trials, &all_rows(trials), &level_cfg, &Hat::default())?;
+            let mut level = vec![0.0];
+            level.extend(x0[trials.len()..trials.len() + loads.len() - 1].iter().copied());
+            level
+        }
+    };
+    Some(Hat { loads: loads.clone(), level })
 }

@@ -109,3 +109,13 @@ pub(super) fn clip_level(trials: &[Trial]) -> Option<f64> {
     let sigma = trials.iter().map(|t| t.sigma).fold(0.0, f64::max);
     catalogue::saturation::clip_level(&trials.iter().map(|t| t.v.as_slice()).collect::<Vec<_>>(), sigma)
 }
+
+impl ClipSteps {
+    /// The steps a clip at `clip` shapes (none without a clip).
+    pub(super) fn of(trials: &[Trial], clip: Option<f64>) -> ClipSteps {
+        match clip {
+            Some(c) => clipped_segments(trials, c),
+            None => ClipSteps { into: vec![], from: vec![], units: vec![] },
+        }
+    }
+}

@@ -294,8 +294,8 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
     let score = |r: Option<Ramp>| -> f64 {
         let mut o = opts.clone();
         o.pre.ramp = r;
-        match run(recs, &o, None, false, true) {
-            Some(Outcome::Baseline(s)) if s.heldout_rmse.is_finite() => s.heldout_rmse,
+        match build(recs, &o, None) {
+            Some(b) if b.base.heldout_rmse.is_finite() => b.base.heldout_rmse,
             _ => f64::INFINITY,
         }
     };

@@ -213,6 +213,19 @@ pub(super) fn located_windows(d: &Design, trials: &[Trial], xc: &[f64], base_cfg
     all
 }
 
+/// What the improved model leaves unexplained: the whiteness test's windows on its residuals, led
+/// by what the residual does right after the steps when there are any.
+pub(super) fn unexplained(d: &Design, trials: &[Trial], x: &[f64], cfg: &Config, hat: &Hat, unit: &str) -> Unexplained {
+    let remaining = locate(d, trials, x, cfg, hat);
+    let mut evidence: Vec<String> = remaining.iter().map(|w| format!("{} {:.1}–{:.1} s: {}", w.recording, w.start_s, w.end_s, w.statistic)).collect();
+    if !remaining.is_empty() {
+        if let Some(line) = step_transients(d, trials, x, cfg, hat, unit) {
+            evidence.insert(0, line);
+        }
+    }
+    Unexplained { flag: !remaining.is_empty(), evidence }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -344,3 +344,76 @@ pub struct Advice {
     #[serde(skip)]
     pub curves: [Vec<f64>; 4],
 }
+
+/// Stage 5, model it and report: the findings reported but not modelled, what the model leaves
+/// unexplained, the final refit and its predictions (`refit`), the units' errors, the improved
+/// model's first-order part, and the spectrum's finding named by its fitted shape.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn diagnosis(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, b: Built, ch: Chosen, (clean, located): (&Score, Vec<LocatedWindow>), clip: Option<f64>, refit_always: bool) -> Diagnosis {
+    let Built { report, trials, d, hat: hat0, base_cfg, base_eval, base_fit, base, xb, .. } = b;
+    let Chosen { cfg: cur, score: cur_score, x: cur_x, hat, mut findings, decisions, mut nuisances, spectrum_exact } = ch;
+    findings.extend(reported_only(&trials, &cur, &cur_score, clip, &report, (&base, clean)));
+    let unexplained = unexplained(&d, &trials, &cur_x, &cur, &hat, &report.unit);
+    let (cur, cur_x, final_trials, final_base, xb) = refit::final_refit(&d, trials, base_eval, &base_fit, (&base_cfg, &hat0, xb), (cur, cur_x, &hat), &mut findings, refit_always);
+    let predictions = refit::predictions(recs, &d, &final_trials, &final_base, (&base_cfg, &hat0, &xb), (&cur, &hat, &cur_x), &findings);
+    let by_unit = unit_errors(&final_base, &base, &cur_score);
+    let (levels, taus) = if d.prior { (vec![], vec![]) } else { first_order_part(&d, &cur, &cur_x, &final_trials) };
+    // the nuisances' parameters as in the final model
+    for n in nuisances.iter_mut().filter(|n| n.name == Effect::RestRelaxation.name()) {
+        n.params = term_params(&d, &cur, &cur_x, Effect::RestRelaxation, &hat);
+    }
+    let final_names = final_names(&cur, &mut findings, spectrum_exact.as_ref());
+    let notes =
+        report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after))).collect();
+    Diagnosis {
+        advice: Vec::new(),
+        advice_notes: Vec::new(),
+        notes,
+        nuisances,
+        schema: SCHEMA,
+        recordings: recs.iter().map(|r| r.source.clone()).collect(),
+        unit: report.unit.clone(),
+        baseline: Baseline {
+            model: if sim.is_some() {
+                "the simulator's first-order prediction for the logged protocol (per-trial offsets fitted)".into()
+            } else {
+                "first-order step per load change, levels shared across trials (the paper's model, fitted exactly)".into()
+            },
+            rmse: base.rmse,
+            heldout_rmse: base.heldout_rmse,
+            bic: base.bic,
+            load_ramp: opts.pre.ramp.filter(|r| r.duration_s > 0.0 && sim.is_none()),
+        },
+        final_: Final {
+            effects: final_names,
+            rmse: cur_score.rmse,
+            heldout_rmse: cur_score.heldout_rmse,
+            units_better: by_unit.iter().filter(|u| u.improved_rmse < u.baseline_rmse).count(),
+            units_scored: by_unit.len(),
+            heldout_by_unit: by_unit,
+            levels,
+            taus,
+        },
+        findings,
+        unexplained,
+        decisions,
+        located,
+        predictions,
+    }
+}
+
+/// The final model's effects by name (nuisances left out); the spectrum's finding, and its name
+/// there, take the name its fitted shape gives.
+fn final_names(cur: &Config, findings: &mut [Finding], spectrum_exact: Option<&Exact>) -> Vec<&'static str> {
+    let mut names: Vec<&'static str> = cur.effects.iter().filter(|e| **e != Effect::RestRelaxation).map(|e| e.name()).collect();
+    for f in findings.iter_mut().filter(|f| f.effect == Effect::Relaxation.name()) {
+        name_spectrum(f, spectrum_exact);
+        let own = f.effect;
+        f.alternatives.retain(|a| a.effect != own);
+        alternatives::apply(f);
+        for n in names.iter_mut().filter(|n| **n == Effect::Relaxation.name()) {
+            *n = f.effect;
+        }
+    }
+    names
+}

@@ -153,3 +153,62 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
     }
     Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, round0_exact }
 }
+
+/// The model the selection chose, its alternatives and the spectrum's exact rival, with every
+/// term's parameters as in that model.
+pub(super) struct Chosen {
+    pub(super) cfg: Config,
+    pub(super) score: Score,
+    pub(super) x: Vec<f64>,
+    pub(super) hat: Hat,
+    pub(super) findings: Vec<Finding>,
+    pub(super) decisions: Vec<Decision>,
+    pub(super) nuisances: Vec<NuisanceTerm>,
+    /// The exact form the relaxation spectrum replaced (its name is read from the spectrum's shape).
+    pub(super) spectrum_exact: Option<Exact>,
+}
+
+/// Stage 4, name: the terms selected on the clean baseline, the other effects that explain each
+/// finding's residual about as well (honest naming), the relaxation spectrum in place of the exact
+/// forms when it predicts clearly better, τ2 refined, and the terms' parameters as in the model.
+pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>, clip_steps: &ClipSteps, actuator: bool) -> Chosen {
+    let (d, trials, report) = (&b.d, b.trials.as_slice(), &b.report);
+    let med_tau = {
+        let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
+        crate::sensor::preprocess::median(&mut t)
+    };
+    let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, hat, mut findings, mut decisions, nuisances, round0_exact } =
+        select(&b.base_cfg, clean.clone(), xc.to_vec(), b.hat.clone(), &Ctx { d, trials, hat: &Hat::default(), clip, clip_steps, med_tau }, report);
+    let mut spectrum_exact: Option<Exact> = None;
+    // honest naming: the other effects that explain each finding's residual about as well
+    for (e, alts) in alternatives::alternatives(&cur, &cur_score, &Ctx { d, trials, hat: &hat, clip, clip_steps, med_tau }) {
+        if let Some(f) = findings.iter_mut().find(|f| f.effect == e.name()) {
+            f.alternatives = alts;
+            alternatives::apply(f);
+        }
+    }
+    // the relaxation spectrum (issue 15): the exact forms of relaxation (creep, one second time
+    // constant) give way to a spectrum over every change when it predicts the held-out data
+    // clearly better than the whole model the catalogue found
+    if !d.prior {
+        spectrum_exact = replace_exact(d, trials, &hat, (&mut cur, &mut cur_score, &mut cur_x), &mut findings, &mut decisions, round0_exact.as_ref(), actuator, clip, report);
+    }
+    // the second relaxation's τ2 was chosen on a grid (steps of ×1.371): refined between the grid
+    // points around it by golden-section search on the training fit (the same rule that chose it),
+    // so the final model's slow relaxation is not off by up to half a grid step. Here with the
+    // simulator's first-order part; otherwise the final refit does it with the refitted shape.
+    if cur.effects.contains(&Effect::SecondTimeConstant) && d.prior {
+        if let Some((c, s, x)) = refine_tau2(d, trials, &cur, &hat) {
+            cur = c;
+            cur_score = s;
+            cur_x = x;
+        }
+    }
+    // the terms' parameters as in the final model (all terms fitted jointly, levels re-estimated)
+    for f in findings.iter_mut() {
+        if let Some(&e) = cur.effects.iter().find(|e| e.name() == f.effect) {
+            f.term.params = term_params(d, &cur, &cur_x, e, &hat);
+        }
+    }
+    Chosen { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, spectrum_exact }
+}
