@@ -87,6 +87,32 @@ pub(super) fn score(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Op
     score_on(d, trials, trials, cfg, hat)
 }
 
+/// A fold's solver: the coefficients fitted to the units `keep` accepts (and the diagonal of the
+/// solve), with the penalty's support when given.
+type Fold<'a> = dyn Fn(&dyn Fn(&(usize, usize)) -> bool, Option<&[f64]>) -> Option<(Vec<f64>, Vec<f64>)> + 'a;
+
+/// Held-out squared errors: their sum and count, and per unit.
+#[derive(Default)]
+struct Held {
+    sse: f64,
+    n: usize,
+    units: std::collections::BTreeMap<(usize, usize), f64>,
+}
+
+impl Held {
+    fn add(&mut self, unit: (usize, usize), e: f64) {
+        self.sse += e * e;
+        self.n += 1;
+        *self.units.entry(unit).or_default() += e * e;
+    }
+}
+
+/// The held-out unit of a sample of a multi-trial set: its trial and the segment it falls in
+/// (segments count from 1 at the first onset).
+fn seg_of(tr: &Trial, t: f64) -> usize {
+    tr.segs.iter().filter(|s| s.t0 <= t).count()
+}
+
 /// Fitted to `fit` (the same trials, possibly as given with handling spikes), scored on `trials`.
 pub(super) fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(Score, Vec<f64>)> {
     let rows = all_rows(trials);
@@ -113,85 +139,115 @@ pub(super) fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config
     }
     let p = d.ncols(cfg) + usize::from(cfg.clip.is_some());
     let bic = n as f64 * (rss / n as f64).max(1e-300).ln() + p as f64 * (n as f64).ln();
-    let (mut hss, mut hn) = (0.0, 0usize);
-    let mut units: std::collections::BTreeMap<(usize, usize), f64> = Default::default();
-    let seg_of = |tr: &Trial, t: f64| tr.segs.iter().filter(|s| s.t0 <= t).count();
-    if trials.len() >= 2 {
-        for k in 0..trials.len() {
-            let Some((mut xk, _)) = fold(&|u| u.0 != k, None) else { continue };
-            // the held-out trial's own offset, from its samples before the first step
-            let tr = &trials[k];
-            let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
-            xk[k] = 0.0;
-            let pre: Vec<f64> = (0..tr.t.len()).filter(|&j| tr.t[j] < t_first - 0.2).map(|j| tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf)).collect();
-            xk[k] = if pre.is_empty() { 0.0 } else { pre.iter().sum::<f64>() / pre.len() as f64 };
-            // per-trial terms are validated inside their trial: fitted (with the offset) on every
-            // other step of it and scored on the steps between (both halves in turn)
-            let own = (d.n_gains(cfg) + d.n_rests(cfg) > 0).then(|| trial_terms_halves(d, k, tr, &xk, cfg, hat));
-            for j in 0..tr.t.len() {
-                if tr.t[j] >= t_first - 0.2 && !at_jump(tr, tr.t[j]) {
-                    if let Some((cols, vals)) = &own {
-                        for (c, v) in cols.iter().zip(&vals[seg_of(tr, tr.t[j]) % 2]) {
-                            xk[*c] = *v;
-                        }
-                    }
-                    let e = tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf);
-                    hss += e * e;
-                    hn += 1;
-                    *units.entry((k, seg_of(tr, tr.t[j]))).or_default() += e * e;
-                }
-            }
-        }
+    let held = if trials.len() >= 2 {
+        leave_trials_out(d, trials, cfg, hat, &fold)
     } else if blocks > 0 {
-        // one recording whose levels are not held in two steps each: the validation split inside
-        // the trial, forward in time — each block of a hold after its first is predicted from
-        // the blocks before it in the same hold and every other hold (a forecast: a trend the
-        // model leaves out shows in every block, not only at a hold's ends)
-        let tr = &trials[0];
-        let keys: std::collections::BTreeSet<(usize, usize)> = tr.t.iter().map(|&t| unit_key(tr, t, blocks)).filter(|k| k.1 > 0 && (k.1 - 1) % blocks > 0).collect();
-        for u in keys {
-            let (hold, block) = ((u.1 - 1) / blocks, (u.1 - 1) % blocks);
-            let later = |x: &(usize, usize)| x.1 > 0 && (x.1 - 1) / blocks == hold && (x.1 - 1) % blocks >= block;
-            let Some((xk, _)) = fold(&|x| !later(x), Some(&full_diag)) else { continue };
-            for j in (0..tr.t.len()).filter(|&j| unit_key(tr, tr.t[j], blocks) == u && !at_jump(tr, tr.t[j])) {
-                let e = tr.v[j] - predict(d, 0, tr, tr.t[j], &xk, cfg, hat, &mut buf);
-                hss += e * e;
-                hn += 1;
-                *units.entry(u).or_default() += e * e;
-            }
-        }
+        forecast_blocks(d, &trials[0], cfg, hat, &fold, &full_diag, blocks)
     } else {
-        // one recording: leave one step out
-        let tr = &trials[0];
-        for s in 0..tr.segs.len() {
-            let (a, b) = (tr.segs[s].t0, tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY));
-            // the step's rows are unit s + 1 (segments count from the first onset)
-            let Some((mut xk, _)) = fold(&|u| *u != (0, s + 1), Some(&full_diag)) else { continue };
-            // the held-out step's own time-constant correction has (almost) no training data:
-            // predict it with the step's fitted τ
-            if cfg.tau_free && !d.prior {
-                xk[d.n_levels() + tr.segs[s].key] = 0.0;
-                // so has its onset shift, when its onset is refitted: its column is zero on every
-                // training row, and the solver's value for it is whatever the penalty left
-                if let Some(q) = d.refit_onset.iter().position(|&k| k == (0, s)) {
-                    xk[d.n_levels() + d.n_keys + q] = 0.0;
+        leave_steps_out(d, &trials[0], cfg, hat, &fold, &full_diag)
+    };
+    let counts = unit_counts(trials, blocks);
+    if !determined(trials, &held, &counts) {
+        return None;
+    }
+    let unit_keys: Vec<(usize, usize)> = held.units.keys().copied().collect();
+    let unit_n = unit_keys.iter().map(|k| counts.get(k).copied().unwrap_or(1).max(1)).collect();
+    Some((
+        Score {
+            rmse: (rss / n.max(1) as f64).sqrt(),
+            heldout_rmse: (held.sse / held.n.max(1) as f64).sqrt(),
+            bic,
+            params: p,
+            n,
+            units: held.units.into_values().collect(),
+            unit_keys,
+            unit_n,
+            blocks,
+        },
+        x,
+    ))
+}
+
+/// Several trials: each held out in turn, predicted by the others' fit with its own offset (from its
+/// samples before the first step) and its own per-trial terms validated inside it (fitted, with the
+/// offset, on every other step of it and scored on the steps between, both halves in turn).
+fn leave_trials_out(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, fold: &Fold) -> Held {
+    let mut held = Held::default();
+    let mut buf = Vec::new();
+    for k in 0..trials.len() {
+        let Some((mut xk, _)) = fold(&|u| u.0 != k, None) else { continue };
+        // the held-out trial's own offset, from its samples before the first step
+        let tr = &trials[k];
+        let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
+        xk[k] = 0.0;
+        let pre: Vec<f64> = (0..tr.t.len()).filter(|&j| tr.t[j] < t_first - 0.2).map(|j| tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf)).collect();
+        xk[k] = if pre.is_empty() { 0.0 } else { pre.iter().sum::<f64>() / pre.len() as f64 };
+        let own = (d.n_gains(cfg) + d.n_rests(cfg) > 0).then(|| trial_terms_halves(d, k, tr, &xk, cfg, hat));
+        for j in 0..tr.t.len() {
+            if tr.t[j] >= t_first - 0.2 && !at_jump(tr, tr.t[j]) {
+                if let Some((cols, vals)) = &own {
+                    for (c, v) in cols.iter().zip(&vals[seg_of(tr, tr.t[j]) % 2]) {
+                        xk[*c] = *v;
+                    }
                 }
-            }
-            for j in 0..tr.t.len() {
-                if tr.t[j] >= a && tr.t[j] < b && !at_jump(tr, tr.t[j]) {
-                    let e = tr.v[j] - predict(d, 0, tr, tr.t[j], &xk, cfg, hat, &mut buf);
-                    hss += e * e;
-                    hn += 1;
-                    *units.entry((0, s)).or_default() += e * e;
-                }
+                let e = tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf);
+                held.add((k, seg_of(tr, tr.t[j])), e);
             }
         }
     }
-    // a fold that predicts a unit worse than any constant inside the signal's range has not
-    // determined what that unit needs (a level held once or briefly, shape corrections running
-    // off): the model cannot be scored held out on these data
-    let (lo, hi) = trials.iter().flat_map(|tr| tr.v.iter().copied()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
-    let range = (hi - lo).max(0.0);
+    held
+}
+
+/// One recording whose levels are not held in two steps each: the validation split inside the
+/// trial, forward in time — each block of a hold after its first is predicted from the blocks
+/// before it in the same hold and every other hold (a forecast: a trend the model leaves out shows
+/// in every block, not only at a hold's ends).
+fn forecast_blocks(d: &Design, tr: &Trial, cfg: &Config, hat: &Hat, fold: &Fold, full_diag: &[f64], blocks: usize) -> Held {
+    let mut held = Held::default();
+    let mut buf = Vec::new();
+    let keys: std::collections::BTreeSet<(usize, usize)> = tr.t.iter().map(|&t| unit_key(tr, t, blocks)).filter(|k| k.1 > 0 && (k.1 - 1) % blocks > 0).collect();
+    for u in keys {
+        let (hold, block) = ((u.1 - 1) / blocks, (u.1 - 1) % blocks);
+        let later = |x: &(usize, usize)| x.1 > 0 && (x.1 - 1) / blocks == hold && (x.1 - 1) % blocks >= block;
+        let Some((xk, _)) = fold(&|x| !later(x), Some(full_diag)) else { continue };
+        for j in (0..tr.t.len()).filter(|&j| unit_key(tr, tr.t[j], blocks) == u && !at_jump(tr, tr.t[j])) {
+            let e = tr.v[j] - predict(d, 0, tr, tr.t[j], &xk, cfg, hat, &mut buf);
+            held.add(u, e);
+        }
+    }
+    held
+}
+
+/// One recording: each step left out in turn.
+fn leave_steps_out(d: &Design, tr: &Trial, cfg: &Config, hat: &Hat, fold: &Fold, full_diag: &[f64]) -> Held {
+    let mut held = Held::default();
+    let mut buf = Vec::new();
+    for s in 0..tr.segs.len() {
+        let (a, b) = (tr.segs[s].t0, tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY));
+        // the step's rows are unit s + 1 (segments count from the first onset)
+        let Some((mut xk, _)) = fold(&|u| *u != (0, s + 1), Some(full_diag)) else { continue };
+        // the held-out step's own time-constant correction has (almost) no training data:
+        // predict it with the step's fitted τ
+        if cfg.tau_free && !d.prior {
+            xk[d.n_levels() + tr.segs[s].key] = 0.0;
+            // so has its onset shift, when its onset is refitted: its column is zero on every
+            // training row, and the solver's value for it is whatever the penalty left
+            if let Some(q) = d.refit_onset.iter().position(|&k| k == (0, s)) {
+                xk[d.n_levels() + d.n_keys + q] = 0.0;
+            }
+        }
+        for j in 0..tr.t.len() {
+            if tr.t[j] >= a && tr.t[j] < b && !at_jump(tr, tr.t[j]) {
+                let e = tr.v[j] - predict(d, 0, tr, tr.t[j], &xk, cfg, hat, &mut buf);
+                held.add((0, s), e);
+            }
+        }
+    }
+    held
+}
+
+/// Samples per held-out unit (as the units are formed for the trials at hand).
+fn unit_counts(trials: &[Trial], blocks: usize) -> std::collections::BTreeMap<(usize, usize), usize> {
     let mut counts: std::collections::BTreeMap<(usize, usize), usize> = Default::default();
     if trials.len() >= 2 {
         for (k, tr) in trials.iter().enumerate() {
@@ -215,26 +271,17 @@ pub(super) fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config
             counts.insert((0, s), tr.t.iter().filter(|&&t| t >= sg.t0 && t < b).count());
         }
     }
-    if units
-        .iter()
-        .any(|(k, &e)| !(e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt().is_finite() || (e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt() > range)
-    {
-        return None;
-    }
-    let unit_keys: Vec<(usize, usize)> = units.keys().copied().collect();
-    let unit_n = unit_keys.iter().map(|k| counts.get(k).copied().unwrap_or(1).max(1)).collect();
-    Some((
-        Score {
-            rmse: (rss / n.max(1) as f64).sqrt(),
-            heldout_rmse: (hss / hn.max(1) as f64).sqrt(),
-            bic,
-            params: p,
-            n,
-            units: units.into_values().collect(),
-            unit_keys,
-            unit_n,
-            blocks,
-        },
-        x,
-    ))
+    counts
+}
+
+/// Whether the folds determined what every unit needs: a fold that predicts a unit worse than any
+/// constant inside the signal's range has not (a level held once or briefly, shape corrections
+/// running off), and the model cannot be scored held out on these data.
+fn determined(trials: &[Trial], held: &Held, counts: &std::collections::BTreeMap<(usize, usize), usize>) -> bool {
+    let (lo, hi) = trials.iter().flat_map(|tr| tr.v.iter().copied()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+    let range = (hi - lo).max(0.0);
+    !held.units.iter().any(|(k, &e)| {
+        let rms = (e / counts.get(k).copied().unwrap_or(1).max(1) as f64).sqrt();
+        !rms.is_finite() || rms > range
+    })
 }
