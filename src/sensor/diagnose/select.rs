@@ -22,7 +22,7 @@ pub(super) struct Selected {
 /// Forward and backward selection from the baseline `base_cfg` (scored `clean`, solved `xc`). The
 /// context's `hat` is not read: the levels start at `hat` and move with the model.
 pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ctx: &Ctx, report: &Report) -> Selected {
-    let (d, trials, clip, clip_steps, med_tau) = (ctx.d, ctx.trials, ctx.clip, ctx.clip_steps, ctx.med_tau);
+    let (d, trials, clip) = (ctx.d, ctx.trials, ctx.clip);
     let loads = d.loads.clone();
     let mut hat = hat;
     let mut cur = base_cfg.clone();
@@ -41,34 +41,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
     let mut findings = Vec::new();
     let mut decisions = Vec::new();
     for round in 0..=CATALOGUE.len() {
-        let mut best: Option<(Effect, Config, Score, Vec<f64>)> = None;
-        // the exact form (creep, one second relaxation) that predicts held-out data best this round
-        let mut exact: Option<Exact> = None;
-        for &e in CATALOGUE.iter().chain([&Effect::RestRelaxation]) {
-            // the spectrum is tried once the catalogue's model stands (below)
-            if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) || e == Effect::Relaxation {
-                continue;
-            }
-            let Some(c) = candidate(e, &cur, &Ctx { d, trials, hat: &hat, clip, clip_steps, med_tau }) else { continue };
-            let Some((s, x)) = score(d, trials, &c, &hat) else { continue };
-            let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
-            let dbic = s.bic - cur_score.bic;
-            let z = change_z(e == Effect::Saturation, &cur_score, &s, clip_steps);
-            decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
-            if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
-                exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
-            }
-            // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN
-            let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { 0.0 };
-            // and a term fitted per trial must beat the same term shared by the trials (the guide's
-            // two hypotheses): a rest relaxation whose trials agree is a warm-up of the read-out,
-            // the drift's
-            // (checked last: it is a cross-validated score of its own)
-            let per_trial = || e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, &c, &s, &hat);
-            if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) && per_trial() {
-                best = Some((e, c, s, x));
-            }
-        }
+        let (best, exact) = forward_round(round, (&cur, &cur_score), &hat, ctx, &mut decisions);
         if round == 0 {
             round0_exact = exact;
         }
@@ -116,17 +89,64 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
             }
         }
     }
-    // backward check: every kept term must still pass the rule given all the others (a term taken
-    // early can be made redundant by a later, better one — drift standing in for hysteresis). A
-    // term is dropped only when the others stand without it: the model without it must itself pass
-    // the rule against the baseline (or be the baseline); terms that only explain the data
-    // together are kept together.
+    // backward check: every kept term must still pass given all the others
+    backward((&mut cur, &mut cur_score, &mut cur_x), &floor, &hat, ctx, (&mut findings, &mut decisions, &mut nuisances));
+    Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, round0_exact }
+}
+
+
+/// A term the forward step accepts, with its model, score and solution.
+type Pick = (Effect, Config, Score, Vec<f64>);
+
+/// One forward round: every catalogue term and a rest relaxation proposed on `cur` (scored `cur_score`),
+/// each decision recorded; the passing candidate with the lowest BIC, and the exact form of
+/// relaxation (creep, one second relaxation) that predicts held-out data best this round.
+fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, ctx: &Ctx, decisions: &mut Vec<Decision>) -> (Option<Pick>, Option<Exact>) {
+    let (d, trials, clip, clip_steps, med_tau) = (ctx.d, ctx.trials, ctx.clip, ctx.clip_steps, ctx.med_tau);
+    let mut best: Option<Pick> = None;
+    // the exact form (creep, one second relaxation) that predicts held-out data best this round
+    let mut exact: Option<Exact> = None;
+    for &e in CATALOGUE.iter().chain([&Effect::RestRelaxation]) {
+        // the spectrum is tried once the catalogue's model stands (below)
+        if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) || e == Effect::Relaxation {
+            continue;
+        }
+        let Some(c) = candidate(e, cur, &Ctx { d, trials, hat, clip, clip_steps, med_tau }) else { continue };
+        let Some((s, x)) = score(d, trials, &c, hat) else { continue };
+        let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
+        let dbic = s.bic - cur_score.bic;
+        let z = change_z(e == Effect::Saturation, cur_score, &s, clip_steps);
+        decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
+        if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
+            exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
+        }
+        // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN
+        let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { 0.0 };
+        // and a term fitted per trial must beat the same term shared by the trials (the guide's
+        // two hypotheses): a rest relaxation whose trials agree is a warm-up of the read-out,
+        // the drift's
+        // (checked last: it is a cross-validated score of its own)
+        let per_trial = || e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, &c, &s, hat);
+        if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) && per_trial() {
+            best = Some((e, c, s, x));
+        }
+    }
+    (best, exact)
+}
+
+/// The backward check: every kept term must still pass the rule given all the others (a term taken
+/// early can be made redundant by a later, better one — drift standing in for hysteresis). A term
+/// is dropped only when the others stand without it: the model without it must itself pass the
+/// rule against `floor` (or be the baseline); terms that only explain the data together are kept
+/// together.
+fn backward((cur, cur_score, cur_x): (&mut Config, &mut Score, &mut Vec<f64>), floor: &Score, hat: &Hat, ctx: &Ctx, (findings, decisions, nuisances): (&mut Vec<Finding>, &mut Vec<Decision>, &mut Vec<NuisanceTerm>)) {
+    let (d, trials, clip_steps) = (ctx.d, ctx.trials, ctx.clip_steps);
     loop {
         let mut worst: Option<(usize, Config, Score, Vec<f64>, f64)> = None;
         for (idx, e) in cur.effects.iter().enumerate() {
-            let c = without(&cur, idx);
-            let Some((s_wo, x_wo)) = score(d, trials, &c, &hat) else { continue };
-            let z = change_z(*e == Effect::Saturation, &s_wo, &cur_score, clip_steps);
+            let c = without(cur, idx);
+            let Some((s_wo, x_wo)) = score(d, trials, &c, hat) else { continue };
+            let z = change_z(*e == Effect::Saturation, &s_wo, cur_score, clip_steps);
             let dbic = cur_score.bic - s_wo.bic;
             let passes = z >= MIN_Z && dbic <= MIN_DBIC;
             let others_stand = c.effects.is_empty() || (paired_z(&floor.units, &s_wo.units) >= MIN_Z && s_wo.bic - floor.bic <= MIN_DBIC && s_wo.heldout_rmse < floor.heldout_rmse);
@@ -147,11 +167,10 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
         });
         findings.retain(|f| f.effect != gone.name());
         nuisances.retain(|n| n.name != gone.name());
-        cur = c;
-        cur_score = s_wo;
-        cur_x = x_wo;
+        *cur = c;
+        *cur_score = s_wo;
+        *cur_x = x_wo;
     }
-    Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, round0_exact }
 }
 
 /// The model the selection chose, its alternatives and the spectrum's exact rival, with every
