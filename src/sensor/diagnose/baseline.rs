@@ -94,6 +94,30 @@ pub(super) fn preload_search(recs: &[Recording], opts: &Options, sb: &SimBaselin
     Some((given, best, s))
 }
 
+
+/// The finding of a simulator preload corrected before any term was sought: the preload it was
+/// given, the one that fits (g), and the baseline's scores at both.
+pub(super) fn preload_finding(given_g: f64, best: f64, (given, best_score): (&Score, &Score)) -> Finding {
+    let gain = (given.heldout_rmse - best_score.heldout_rmse) / given.heldout_rmse.max(1e-300);
+    let dbic = best_score.bic - given.bic + (given.n.max(2) as f64).ln();
+    Finding {
+        effect: "preload_mismatch",
+        confidence: if gain > 0.25 { "high" } else { "medium" },
+        explanation: format!(
+            "the recordings sit where the simulator puts a preload of {} g, not the {} g it was given (--rig manifest or the sensor file's rig.preload_g): a constant load the logged protocol leaves out (the plunger's mass, a pre-tensioned cover) or a level offset; corrected before any other term was sought",
+            catalogue::sig3(best),
+            catalogue::sig3(given_g)
+        ),
+        windows: vec![],
+        term: Term { name: "preload_mismatch".into(), params: serde_json::json!({"preload_g_given": given_g, "preload_g_fitted": best}) },
+        heldout_rmse_before: given.heldout_rmse,
+        heldout_rmse_after: best_score.heldout_rmse,
+        delta_bic: dbic,
+        alternatives: vec![],
+        ambiguity: None,
+    }
+}
+
 /// The baseline as built and scored: the trials, the design, the levels the terms are built on,
 /// and the baseline's configuration, fit and score.
 pub(super) struct Built {

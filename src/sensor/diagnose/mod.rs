@@ -89,26 +89,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     }
     let corrected = SimBaseline { sensor: sb.sensor, preload_g: best };
     let mut d = run_spike_checked(recs, opts, Some(&corrected), false)?;
-    let dbic = best_score.bic - given.bic + (given.n.max(2) as f64).ln();
-    d.findings.insert(
-        0,
-        Finding {
-            effect: "preload_mismatch",
-            confidence: if gain > 0.25 { "high" } else { "medium" },
-            explanation: format!(
-                "the recordings sit where the simulator puts a preload of {} g, not the {} g it was given (--rig manifest or the sensor file's rig.preload_g): a constant load the logged protocol leaves out (the plunger's mass, a pre-tensioned cover) or a level offset; corrected before any other term was sought",
-                catalogue::sig3(best),
-                catalogue::sig3(sb.preload_g)
-            ),
-            windows: vec![],
-            term: Term { name: "preload_mismatch".into(), params: serde_json::json!({"preload_g_given": sb.preload_g, "preload_g_fitted": best}) },
-            heldout_rmse_before: given.heldout_rmse,
-            heldout_rmse_after: best_score.heldout_rmse,
-            delta_bic: dbic,
-            alternatives: vec![],
-            ambiguity: None,
-        },
-    );
+    d.findings.insert(0, preload_finding(sb.preload_g, best, (&given, &best_score)));
     d.final_.effects.insert(0, "preload_mismatch");
     d.baseline.rmse = given.rmse;
     d.baseline.heldout_rmse = given.heldout_rmse;
