@@ -72,7 +72,7 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
             let Some((s, x)) = score(ctx.d, ctx.trials, &c, ctx.hat) else { continue };
             // a clip changes only the units that reach it: its evidence is tested there, whichever
             // of the two is the clip
-            let on_clip = |a: &Score, b: &Score| change_z(e == Effect::Saturation || named == Effect::Saturation, a, b, ctx.clip_steps);
+            let on_clip = |a: &Score, b: &Score| change_z(e == Effect::Saturation || named == Effect::Saturation, a, b, &ctx.clip_steps.units);
             let explains = s.heldout_rmse < s_wo.heldout_rmse && on_clip(&s_wo, &s) >= MIN_Z;
             let z_sep = on_clip(&s, cur_score);
             if explains && z_sep < Z_SEPARATE {

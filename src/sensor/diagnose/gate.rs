@@ -64,19 +64,19 @@ pub(super) fn diff_z(before: &[f64], after: &[f64]) -> f64 {
     mean / (sd / m.sqrt())
 }
 
-/// Paired z over the units listed in `only` (all units when it is empty). With fewer than three
-/// such units a z cannot be formed: every one of them must then at least halve its error, which
-/// counts as passing (MIN_Z), else 0.
 /// The paired z of a change that adds or removes a clip (`clip`): a clip can only change the units
-/// that reach it, so its evidence is tested there; any other change over every unit.
-pub(super) fn change_z(clip: bool, before: &Score, after: &Score, clip_steps: &ClipSteps) -> f64 {
+/// that reach it (`clip_units`), so its evidence is tested there; any other change over every unit.
+pub(super) fn change_z(clip: bool, before: &Score, after: &Score, clip_units: &[(usize, usize)]) -> f64 {
     if clip {
-        paired_z_on(before, after, &clip_steps.units)
+        paired_z_on(before, after, clip_units)
     } else {
         paired_z(&before.units, &after.units)
     }
 }
 
+/// Paired z over the units listed in `only` (all units when it is empty). With fewer than three
+/// such units a z cannot be formed: every one of them must then at least halve its error, which
+/// counts as passing (MIN_Z), else 0.
 pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]) -> f64 {
     if only.is_empty() {
         return paired_z(&before.units, &after.units);

@@ -270,61 +270,6 @@ pub(super) fn step_ramp(series: &Series, end: f64, (v0, k, tau): (f64, f64, f64)
 /// How far a step's ramp may end from the data set's end (s): the log's timing of each step.
 const END_SHIFTS_S: [f64; 9] = [-0.4, -0.3, -0.2, -0.1, 0.0, 0.1, 0.2, 0.3, 0.4];
 
-/// The ramp durations (s) tried for an actuator's load, up to half the shortest hold (each step
-/// then takes its own, 0.4–2 × the data set's: together 0.6–20 s).
-const RAMP_GRID_S: [f64; 3] = [1.5, 4.0, 10.0];
-/// A ramp replaces the load changing at once when it lowers the baseline's held-out RMSE by this.
-const MIN_RAMP_GAIN: f64 = 0.02;
-
-/// An actuator's recordings (`--actuator`, or `loading=actuator` in their metadata): the load's
-/// ramp, fitted once per data set (issue 15, item 1). The actuator travels for seconds around the
-/// logged change; the baseline's first-order steps are driven by a ramp of each duration of
-/// [`RAMP_GRID_S`], at a constant speed and as an S-curve, ending at the logged change; for the
-/// best of them, when it already gains half of [`MIN_RAMP_GAIN`], the end is moved by ±0.5 and
-/// ±1 s. Each is scored by the baseline's own cross-validation (its held-out RMSE over the units).
-/// Loads placed by hand, and a ramp that gains under [`MIN_RAMP_GAIN`], keep the step at once (when
-/// the step at once cannot be scored at all, any ramp that can is taken).
-pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
-    use rayon::prelude::*;
-
-    let actuator = !opts.pre.handling || recs.iter().any(|r| r.meta.all.get("loading").is_some_and(|l| l.trim() == "actuator"));
-    if !actuator || opts.pre.ramp.is_some() {
-        return opts.clone();
-    }
-    let score = |r: Option<Ramp>| -> f64 {
-        let mut o = opts.clone();
-        o.pre.ramp = r;
-        match build(recs, &o, None) {
-            Some(b) if b.base.heldout_rmse.is_finite() => b.base.heldout_rmse,
-            _ => f64::INFINITY,
-        }
-    };
-    // the candidates scored in parallel, the best taken in their order (the same on any machine)
-    let best_of = |cands: Vec<Option<Ramp>>| -> (f64, Option<Ramp>) {
-        let scores: Vec<f64> = cands.par_iter().map(|&r| score(r)).collect();
-        cands.into_iter().zip(scores).fold((f64::INFINITY, None), |b, (r, s)| if s < b.0 { (s, r) } else { b })
-    };
-    let shortest = recs.iter().flat_map(|r| crate::sensor::preprocess::segment(r, &opts.pre).0).map(|s| s.t_end - s.t_log).fold(f64::INFINITY, f64::min);
-    let grid: Vec<Option<Ramp>> = [false, true]
-        .into_iter()
-        .flat_map(|smooth| RAMP_GRID_S.into_iter().filter(|&d| d <= 0.5 * shortest).map(move |d| Some(Ramp { duration_s: d, end_after_log_s: 0.0, smooth })))
-        .collect();
-    let (at_once, mut best) = rayon::join(|| score(None), || best_of(grid));
-    // the end refined only for a ramp that pays already at half the rule's gain
-    if let (s0, Some(r0)) = best {
-        if s0 >= (1.0 - 0.5 * MIN_RAMP_GAIN) * at_once {
-            return opts.clone();
-        }
-        let (s, r) = best_of([-1.0, -0.5, 0.5, 1.0].into_iter().map(|e| Some(Ramp { end_after_log_s: e, ..r0 })).collect());
-        if s < best.0 {
-            best = (s, r);
-        }
-    }
-    let mut o = opts.clone();
-    o.pre.ramp = best.1.filter(|_| best.0 < (1.0 - MIN_RAMP_GAIN) * at_once);
-    o
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,17 +5,35 @@
 //!   V(t) = o_i + Σ_s [level(L_s) − level(L_{s−1})] · (1 − e^{−(t − t0_s)/τ_s}),
 //! with levels shared across trials per load (loading and unloading alike), τ_s from the exact
 //! per-step fit and t0 the onsets found in each trial. Catalogue terms add to it (all linear given
-//! their shape parameter): creep, hysteresis, a second time constant, baseline drift, and
-//! saturation (a clip); handling spikes are reported and excluded, never modelled. Selection is
-//! forward: a term enters when it lowers the held-out error (leave one trial out; with one
-//! recording, leave one step out) with a paired z of at least `MIN_Z` over trial × step units, and
-//! BIC by at least `MIN_DBIC`.
+//! their shape parameter): creep, hysteresis, a second time constant, baseline drift, a relaxation
+//! spectrum and saturation (a clip); handling spikes are reported and excluded, never modelled.
+//! A term enters when it lowers the held-out error (leave one trial out; with one recording, leave
+//! one step out or forecast the later blocks of each hold) with a paired z of at least `MIN_Z`
+//! over units, and BIC by at least `MIN_DBIC`.
+//!
+//! The pipeline (`run`), one stage per file:
+//! 1. `baseline` — an actuator's load ramp chosen once per data set by the baseline's own
+//!    cross-validation (`with_ramp`; the ramp's response and each step's own ramp are `input`'s);
+//!    part 1's step fits as trials (`model`); the paper's model fitted and scored held out
+//!    (`heldout`, solved through `normal`), or the simulator's prediction;
+//! 2. the handling spikes' check (here): excluded only when that predicts held-out data better;
+//! 3. `locate` — where the baseline fails: the whiteness test and every effect's signature;
+//! 4. `select` — nuisances (`nuisance`), then the catalogue's terms (`terms`, with `clip` for
+//!    saturation) forward and backward through the `gate`; the other names that explain the same
+//!    residual (`alternatives`); the relaxation spectrum in place of the exact forms (`spectrum`);
+//! 5. `refit` and `report` — the final refit of the first-order shape with the terms, the
+//!    predictions, and the diagnosis.
+//!
+//! Shared by the stages, and calling none of them: `model`, `first_order` (the filtered first-order
+//! rise and its derivatives), `input`, `normal`, `heldout` and `gate`. A stage calls only those and
+//! the stages before it.
 
 mod alternatives;
 mod baseline;
 mod clip;
 mod first_order;
 mod gate;
+mod heldout;
 mod input;
 mod locate;
 mod model;
@@ -23,35 +41,37 @@ mod normal;
 mod nuisance;
 mod refit;
 mod report;
-mod heldout;
 mod select;
 mod spectrum;
 mod terms;
 
 use super::analyze::{self, Options, Prepared, Report};
+use super::catalogue::second_time_constant::Drive;
+use super::catalogue::{self, Steps, MODELLED as CATALOGUE};
 use super::preprocess::Phase;
 use super::recording::Recording;
-use nalgebra::{DMatrix, DVector};
-use input::*;
-use normal::*;
-pub use alternatives::{Alternative, Z_SEPARATE};
-pub use nuisance::NuisanceTerm;
-use serde::Serialize;
-use select::Chosen;
-use spectrum::*;
 use baseline::*;
 use clip::*;
 use first_order::*;
 use gate::*;
+use heldout::*;
+use input::*;
 use locate::*;
 use model::*;
+use nalgebra::{DMatrix, DVector};
+use normal::*;
+use select::Chosen;
+use serde::Serialize;
+use spectrum::*;
 use terms::*;
+
+pub use super::catalogue::Effect;
+pub use alternatives::{Alternative, Z_SEPARATE};
 pub use baseline::{SimBaseline, MIN_PRELOAD_GAIN};
 pub use gate::MIN_ROBUST_GAIN;
-pub use report::*;
 pub use heldout::Score;
-use heldout::*;
-use refit::refit_onsets;
+pub use nuisance::NuisanceTerm;
+pub use report::*;
 
 /// A term must improve held-out prediction with a paired z of at least this over units.
 pub const MIN_Z: f64 = 3.0;
@@ -64,10 +84,7 @@ pub const MIN_DBIC: f64 = -10.0;
 pub const SPECTRUM_MARGIN: f64 = 0.10;
 pub const SCHEMA: &str = "tipforge.diagnosis/1";
 
-use super::catalogue::second_time_constant::Drive;
-pub use super::catalogue::Effect;
-use super::catalogue::{self, Steps, MODELLED as CATALOGUE};
-
+/// The diagnosis of recordings against the paper's model (see [`diagnose_with`]).
 pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
     diagnose_with(recs, opts, None)
 }

@@ -115,7 +115,7 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         let Some((s, x)) = score(d, trials, &c, hat) else { continue };
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
         let dbic = s.bic - cur_score.bic;
-        let z = change_z(e == Effect::Saturation, cur_score, &s, clip_steps);
+        let z = change_z(e == Effect::Saturation, cur_score, &s, &clip_steps.units);
         decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
         if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
             exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
@@ -146,7 +146,7 @@ fn backward((cur, cur_score, cur_x): (&mut Config, &mut Score, &mut Vec<f64>), f
         for (idx, e) in cur.effects.iter().enumerate() {
             let c = without(cur, idx);
             let Some((s_wo, x_wo)) = score(d, trials, &c, hat) else { continue };
-            let z = change_z(*e == Effect::Saturation, &s_wo, cur_score, clip_steps);
+            let z = change_z(*e == Effect::Saturation, &s_wo, cur_score, &clip_steps.units);
             let dbic = cur_score.bic - s_wo.bic;
             let passes = z >= MIN_Z && dbic <= MIN_DBIC;
             let others_stand = c.effects.is_empty() || (paired_z(&floor.units, &s_wo.units) >= MIN_Z && s_wo.bic - floor.bic <= MIN_DBIC && s_wo.heldout_rmse < floor.heldout_rmse);

@@ -4,45 +4,6 @@
 
 use super::*;
 
-/// Columns after the kernel sets: the steps' own first-order decay after loading and after
-/// unloading (the share of each change the spectrum takes from the first-order part).
-pub(super) const OWN_TAU_COLS: usize = 2;
-
-/// The relaxation spectrum's columns: every change of the trial drives the kernels of its kind
-/// (loading: the first half, unloading: the second) by its change of level.
-pub(super) fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx: &Relax, out: &mut [f64]) {
-    let k = rx.taus.len();
-    if let (Some(&t_start), true) = (tr.t.first(), i < rx.trials) {
-        for (j, &tau) in rx.taus.iter().enumerate() {
-            out[(2 + i) * k + j] = catalogue::relaxation::kernel(t, t_start, 0.0, tau);
-        }
-    }
-    for (q, sg) in tr.segs.iter().enumerate() {
-        // the load as the baseline applies it (an actuator's ramps), else the spectrum's own ramp
-        let ramped = rx.by_steps && sg.input.ramp_s > 0.0;
-        let (end, ramp_s) = if ramped { (sg.t0, sg.input.ramp_s) } else { (sg.t_log + rx.end_s, rx.ramp_s) };
-        if t <= end - ramp_s {
-            break;
-        }
-        let dv = steps.dv(q);
-        let set = if steps.unloading(q) && !rx.shared { k } else { 0 };
-        let own = rx.sets() * k + usize::from(steps.unloading(q));
-        let since = t - steps.t0(q);
-        // the input's course at t, for every kernel of a ramped step
-        let w = if sg.input.ramp_s > 0.0 { course_at(t, sg.t0, sg.input) } else { 0.0 };
-        if rx.own_tau {
-            // the steps' own first-order decay, of the load as the baseline applies it
-            if sg.input.ramp_s > 0.0 {
-                out[own] += dv * ramp_kernel(t, steps.t0(q), steps.tau(q), sg.input, w);
-            } else if since >= 0.0 {
-                out[own] += dv * (-since / steps.tau(q)).exp();
-            }
-        }
-        for (j, &tau) in rx.taus.iter().enumerate() {
-            out[set + j] += dv * if ramped { ramp_kernel(t, end, tau, sg.input, w) } else { catalogue::relaxation::kernel(t, end, ramp_s, tau) };
-        }
-    }
-}
 
 /// The exact form of a relaxation (creep, or one second time constant with its drive) that
 /// predicted the held-out data best in the round the spectrum entered.
