@@ -189,16 +189,7 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
             f_max = f_max.max(f_after);
             ev_i += 1;
         }
-        // the load as applied: a hand's touch ramps it in before the landing, with a press
-        let mut load_now = cur_load;
-        if let (Some(&(d, press)), Some(ev)) = (touches.get(ev_i), events.get(ev_i)) {
-            let u = (tk - (ev.0 - d)) / d;
-            if (0.0..1.0).contains(&u) {
-                let delta = ev.1 - cur_load;
-                load_now = cur_load + delta * u * u * (3.0 - 2.0 * u) + press * delta.abs() * (std::f64::consts::PI * u).sin().powi(2);
-            }
-        }
-        let f = force_of(load_now);
+        let f = force_of(load_now(cur_load, touches.get(ev_i), events.get(ev_i), tk));
         let mut target = p.v_eq(f);
         if e.hysteresis > 0.0 && f < f_max {
             target += e.hysteresis * (p.v_eq(f_max) - target);
@@ -214,38 +205,11 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
             v_slow = target;
         }
         let first = (1.0 - e.second_fraction) * v_fast + e.second_fraction * v_slow;
-        // creep: log-time growth under the current load, the previous creep relaxing away
-        creep_now = if e.creep_per_decade > 0.0 && e.creep_superposed {
-            // every change so far adds its own log-time creep, which keeps going (superposition
-            // over the load history); the change in progress counts from its landing
-            let mut c = 0.0;
-            let mut before = p.v_eq(f0);
-            for st in &steps {
-                let since = (tk - st.t_land_s).max(0.0);
-                let after = p.v_eq(st.force_after_n);
-                c += e.creep_per_decade * (after - before) * (1.0 + since / e.creep_time_s).log10();
-                before = after;
-            }
-            c
-        } else if e.creep_per_decade > 0.0 {
-            let since = (tk - t_change).max(0.0);
-            let decay = creep_carry * (-since / p.tau(f)).exp();
-            decay + e.creep_per_decade * (p.v_eq(f) - p.v_eq(f0)) * (1.0 + since / e.creep_time_s).log10()
-        } else {
-            0.0
-        };
+        creep_now = creep(p, (f0, f), tk, &steps, (t_change, creep_carry));
         let ramp = if e.drift_warmup_tau_s > 0.0 { e.drift_warmup_tau_s * (1.0 - (-tk / e.drift_warmup_tau_s).exp()) } else { tk };
         let drift = e.drift_v_per_s * ramp + e.wander_v * (2.0 * std::f64::consts::PI * tk / e.wander_period_s).sin();
         let rest = if rest_amp != 0.0 { rest_amp * (-tk / nu.rest_tau_s).exp() } else { 0.0 };
-        let mut v = first + creep_now + drift - v_cov + rest;
-        if e.spike_v > 0.0 {
-            for (j, ev) in events.iter().enumerate() {
-                let s = tk - ev.0 + 0.5 * e.spike_s;
-                if (0.0..e.spike_s).contains(&s) {
-                    v += spike_signs[j] * e.spike_v * (std::f64::consts::PI * s / e.spike_s).sin();
-                }
-            }
-        }
+        let v = first + creep_now + drift - v_cov + rest + spikes(e, &events, &spike_signs, tk);
         time.push(tk);
         clean.push(v);
         fo.push(first);
@@ -253,6 +217,68 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         let lg = logs.iter().zip(&events).filter(|(l, _)| **l <= tk).map(|(_, ev)| ev.1).next_back().unwrap_or(0.0);
         logged.push(lg);
     }
+    let recorded = read_out(p, &mut rng, &mut clean);
+    let rec = as_recording(c, seed, time, recorded, logged);
+    (rec, Truth { seed, preload_g, steps, clean_v: clean, first_order_v: fo })
+}
+
+/// The load as applied at `tk`: a hand's touch (duration, press) ramps it in before the landing of
+/// the next event, with a press; otherwise the current load.
+fn load_now(cur_load: f64, touch: Option<&(f64, f64)>, next: Option<&(f64, f64, &str, usize)>, tk: f64) -> f64 {
+    if let (Some(&(d, press)), Some(ev)) = (touch, next) {
+        let u = (tk - (ev.0 - d)) / d;
+        if (0.0..1.0).contains(&u) {
+            let delta = ev.1 - cur_load;
+            return cur_load + delta * u * u * (3.0 - 2.0 * u) + press * delta.abs() * (std::f64::consts::PI * u).sin().powi(2);
+        }
+    }
+    cur_load
+}
+
+/// Creep at `tk` under force `f` (from `f0` at no load): log-time growth under the current load,
+/// the previous creep (`creep_carry` at the last change, `t_change`) relaxing away; or, superposed,
+/// every change's own log-time creep, which keeps going.
+fn creep(p: &SensorParams, (f0, f): (f64, f64), tk: f64, steps: &[TruthStep], (t_change, creep_carry): (f64, f64)) -> f64 {
+    let e = &p.effects;
+    if e.creep_per_decade > 0.0 && e.creep_superposed {
+        // every change so far adds its own log-time creep, which keeps going (superposition
+        // over the load history); the change in progress counts from its landing
+        let mut c = 0.0;
+        let mut before = p.v_eq(f0);
+        for st in steps {
+            let since = (tk - st.t_land_s).max(0.0);
+            let after = p.v_eq(st.force_after_n);
+            c += e.creep_per_decade * (after - before) * (1.0 + since / e.creep_time_s).log10();
+            before = after;
+        }
+        c
+    } else if e.creep_per_decade > 0.0 {
+        let since = (tk - t_change).max(0.0);
+        let decay = creep_carry * (-since / p.tau(f)).exp();
+        decay + e.creep_per_decade * (p.v_eq(f) - p.v_eq(f0)) * (1.0 + since / e.creep_time_s).log10()
+    } else {
+        0.0
+    }
+}
+
+/// Handling spikes at `tk`: a half sine of each event's sign around its landing.
+fn spikes(e: &crate::params::sensor::Effects, events: &[(f64, f64, &str, usize)], signs: &[f64], tk: f64) -> f64 {
+    let mut v = 0.0;
+    if e.spike_v > 0.0 {
+        for (j, ev) in events.iter().enumerate() {
+            let s = tk - ev.0 + 0.5 * e.spike_s;
+            if (0.0..e.spike_s).contains(&s) {
+                v += signs[j] * e.spike_v * (std::f64::consts::PI * s / e.spike_s).sin();
+            }
+        }
+    }
+    v
+}
+
+/// The read-out of the noise-free signal `clean`: a rail before the noise or a clip after it,
+/// white and AR(1) noise, the ADC; `clean` is clipped as the recording is.
+fn read_out(p: &SensorParams, rng: &mut Rng, clean: &mut [f64]) -> Vec<f64> {
+    let (c, e, nu) = (&p.circuit, &p.effects, &p.nuisance);
     let full = (1u64 << c.adc_bits.min(32)) as f64 - 1.0;
     // the rail (or the ADC's reference) clips the signal with its noise, so clipped samples pile up
     // at one value
@@ -279,6 +305,11 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
     for v in clean.iter_mut() {
         *v = v.min(sat).min(rail);
     }
+    recorded
+}
+
+/// The simulated trial as a recording in the documented format.
+fn as_recording(c: &crate::params::sensor::Circuit, seed: u64, time: Vec<f64>, recorded: Vec<f64>, logged: Vec<f64>) -> Recording {
     let meta = Meta {
         sample_rate_hz: Some(c.sample_rate_hz),
         vcc_v: Some(c.vcc_v),
@@ -288,7 +319,7 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         divider: Some(if c.sensor_high { Divider::SensorHigh } else { Divider::SensorLow }),
         all: Default::default(),
     };
-    let rec = Recording {
+    Recording {
         source: format!("sim-{seed}.csv"),
         meta,
         time_s: time,
@@ -299,8 +330,7 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         protocol_kind: ProtocolKind::LoadG,
         ignored_columns: vec![],
         raw: None,
-    };
-    (rec, Truth { seed, preload_g, steps, clean_v: clean, first_order_v: fo })
+    }
 }
 
 /// Writes a recording in the documented CSV format.
