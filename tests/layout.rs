@@ -61,3 +61,53 @@ fn the_diagnosis_does_not_call_the_advice_or_the_twin() {
     }
     assert!(out.is_empty(), "the diagnosis calls downstream:\n{}", out.join("\n"));
 }
+
+/// Functions in `src/` longer than `max` lines (from the `fn` line to its closing brace, at the
+/// same indentation), as "path:line name (n lines)".
+fn long_functions(max: usize) -> Vec<String> {
+    fn walk(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(&path, out);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                out.push(path);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(&Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), &mut files);
+    files.sort();
+    let mut long = Vec::new();
+    for path in files {
+        let text = std::fs::read_to_string(&path).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        for (i, line) in lines.iter().enumerate() {
+            let body = line.trim_start();
+            let indent = line.len() - body.len();
+            let head = ["pub(crate) fn ", "pub(super) fn ", "pub fn ", "fn ", "const fn ", "pub const fn "].iter().find(|p| body.starts_with(**p));
+            let Some(head) = head else { continue };
+            if body.ends_with(';') {
+                continue;
+            }
+            let closing = " ".repeat(indent) + "}";
+            let Some(end) = lines[i + 1..].iter().position(|l| *l == closing) else { continue };
+            let n = end + 2;
+            if n > max {
+                let name: String = body[head.len()..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                long.push(format!("{}:{} {name} ({n} lines)", path.display(), i + 1));
+            }
+        }
+    }
+    long
+}
+
+/// Pipelines read top-down: no function in `src/` is over 120 lines (the style guide's "about 120";
+/// issue 15, item 8 for the diagnosis).
+#[test]
+fn no_function_is_over_120_lines() {
+    let long = long_functions(120);
+    assert!(long.is_empty(), "split these into stages:\n{}", long.join("\n"));
+    // the measure can fail: a 30-line bound finds the long ones
+    assert!(long_functions(30).len() > 10);
+}

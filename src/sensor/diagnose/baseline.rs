@@ -294,3 +294,28 @@ fn levels(recs: &[Recording], sim: Option<&SimBaseline>, d: &Design, trials: &[T
     };
     Some(Hat { loads: loads.clone(), level })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The baseline stage on three clean trials: six loads, levels rising with the load, every
+    /// step's part-1 time constant near the simulator's τ(F), a held-out error near the filtered
+    /// noise; loads placed by hand keep the step at once (no ramp search).
+    #[test]
+    fn the_baseline_is_the_papers_model_fitted_to_the_trials() {
+        let (recs, truth) = fixture::recs_and_truth(91_000, |_| {});
+        let b = fixture::built(&recs);
+        assert_eq!(b.d.loads, vec![0.0, 200.0, 400.0, 600.0, 800.0, 1000.0]);
+        assert!(b.hat.level.windows(2).all(|w| w[1] > w[0] + 0.05), "{:?}", b.hat.level);
+        for (tr, tt) in b.trials.iter().zip(&truth) {
+            assert_eq!(tr.segs.len(), 10);
+            for (sg, st) in tr.segs.iter().zip(&tt.steps) {
+                assert!((sg.tau / st.tau_s - 1.0).abs() < 0.3, "τ {} vs {}", sg.tau, st.tau_s);
+                assert!((sg.t0 - st.t_land_s).abs() < 0.1, "onset {} vs {}", sg.t0, st.t_land_s);
+            }
+        }
+        assert!(b.base.heldout_rmse < 2.5e-3, "{}", b.base.heldout_rmse);
+        assert!(with_ramp(&recs, &Options::default()).pre.ramp.is_none());
+    }
+}

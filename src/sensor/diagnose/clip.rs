@@ -119,3 +119,25 @@ impl ClipSteps {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A clip at 1.55 V cuts the top load's holds only (1000 g reads about 1.65 V): the level is
+    /// found, the three steps into it and the three falling from it are the ones it shapes; no
+    /// clip on clean data.
+    #[test]
+    fn a_clip_shapes_the_steps_into_it_and_from_it_only() {
+        let b = fixture::built(&fixture::recs(7000, |s| s.effects.saturation_v = 1.55));
+        let level = clip_level(&b.trials).expect("the clip level");
+        assert!((level - 1.55).abs() < 0.01, "{level}");
+        let steps = ClipSteps::of(&b.trials, Some(level));
+        let load = |&(k, s): &(usize, usize)| (b.trials[k].segs[s].prev, b.trials[k].segs[s].load);
+        assert_eq!(steps.into.iter().map(load).collect::<Vec<_>>(), vec![(800.0, 1000.0); 3]);
+        assert_eq!(steps.from.iter().map(load).collect::<Vec<_>>(), vec![(1000.0, 800.0); 3]);
+        let fixes = clip_fixes(&b.trials, level, &steps);
+        assert_eq!(fixes.len(), 3);
+        assert!(clip_level(&fixture::built(&fixture::recs(7000, |_| {})).trials).is_none());
+    }
+}

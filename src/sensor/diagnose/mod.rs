@@ -31,6 +31,8 @@
 mod alternatives;
 mod baseline;
 mod clip;
+#[cfg(test)]
+mod fixture;
 mod first_order;
 mod gate;
 mod heldout;

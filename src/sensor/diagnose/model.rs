@@ -476,3 +476,48 @@ pub(super) fn sample_interval(tr: &Trial) -> f64 {
     }
     (tr.t[n - 1] - tr.t[0]) / (n - 1) as f64
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn seg(key: usize, t0: f64, prev: f64, load: f64, tau: f64) -> Seg {
+        Seg { key, t0, load, prev, tau, phase: Phase::Loading, t_log: t0, input: LoadIn::default(), sim: None }
+    }
+
+    fn trial(h: f64) -> Trial {
+        let t: Vec<f64> = (0..400).map(|j| 0.05 * j as f64).collect();
+        let v = vec![0.0; t.len()];
+        let segs = vec![seg(0, 3.0, 0.0, 1.0, 0.8), seg(1, 9.0, 1.0, 2.0, 1.5)];
+        Trial { name: "hand-made".into(), given_t: t.clone(), given_v: v.clone(), t, v, segs, sigma: 1e-3, prior0: None, clip_margin: 0.0, half_span_s: h }
+    }
+
+    /// The design row makes the model the superposition of first-order steps: with the offset and
+    /// the levels as coefficients, `predict` is o + L1·u1 + (L2 − L1)·u2, and with a filtered
+    /// sample's span the average of that over the span.
+    #[test]
+    fn the_design_row_is_the_superposition_of_first_order_steps() {
+        let d = Design { loads: vec![0.0, 1.0, 2.0], n_trials: 1, n_keys: 2, refit_onset: vec![], prior: false, exact_shape: false };
+        let cfg = Config::first_order();
+        let (o, l1, l2) = (0.1, 0.7, 1.1);
+        let mut x = vec![0.0; d.ncols(&cfg)];
+        (x[0], x[1], x[2]) = (o, l1, l2);
+        let point = |t: f64| {
+            let u = |t0: f64, tau: f64| if t >= t0 { 1.0 - (-(t - t0) / tau).exp() } else { 0.0 };
+            o + l1 * u(3.0, 0.8) + (l2 - l1) * u(9.0, 1.5)
+        };
+        let mut buf = Vec::new();
+        let tr = trial(0.0);
+        for &t in &[0.0, 3.0, 3.4, 8.99, 9.0, 10.0, 19.0] {
+            let v = predict(&d, 0, &tr, t, &x, &cfg, &Hat::default(), &mut buf);
+            assert!((v - point(t)).abs() < 1e-12, "t {t}: {v} vs {}", point(t));
+        }
+        let h = 0.05;
+        let tr = trial(h);
+        for &t in &[2.97, 3.02, 3.3, 9.04, 12.0] {
+            let avg = (0..=2000).map(|q| point(t - h + 2.0 * h * q as f64 / 2000.0)).sum::<f64>() / 2001.0;
+            let v = predict(&d, 0, &tr, t, &x, &cfg, &Hat::default(), &mut buf);
+            assert!((v - avg).abs() < 1e-4, "t {t}: {v} vs {avg}");
+        }
+    }
+}

@@ -303,3 +303,26 @@ pub(super) fn refit_onsets(d: &Design, fit: &[Trial], cfg: &Config, hat: &Hat) -
     let x2 = solve(&Design { exact_shape: true, ..d.clone() }, &shifted, &all_rows(&shifted), cfg, hat)?;
     Some((shifted, x2))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The normal equations are a sum over units: summed, they give the solution of all the rows;
+    /// a fold (one trial left out) is a sum of fewer of them and gives another.
+    #[test]
+    fn folds_are_sums_of_unit_normal_equations() {
+        let b = fixture::built(&fixture::recs(91_000, |_| {}));
+        let rows = all_rows(&b.trials);
+        let x = solve(&b.d, &b.trials, &rows, &b.base_cfg, &b.hat).unwrap();
+        let units = unit_normals(&b.d, &b.trials, &rows, &b.base_cfg, &b.hat);
+        let all: Vec<&Normal> = units.values().collect();
+        let (x_sum, _) = solve_normal(&b.d, &b.base_cfg, &sum_normals(&b.d, &b.base_cfg, &all), None, 0.0).unwrap();
+        let scale = x.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        assert!(x.iter().zip(&x_sum).all(|(a, b)| (a - b).abs() < 1e-6 * scale), "{x:?} vs {x_sum:?}");
+        let fold: Vec<&Normal> = units.iter().filter(|(k, _)| k.0 != 0).map(|(_, n)| n).collect();
+        let (x_fold, _) = solve_normal(&b.d, &b.base_cfg, &sum_normals(&b.d, &b.base_cfg, &fold), None, 0.0).unwrap();
+        let n_levels = b.d.n_levels();
+        assert!(x_fold[3..n_levels].iter().zip(&x[3..n_levels]).any(|(a, b)| (a - b).abs() > 1e-9), "a fold without a trial fits the same levels");
+    }
+}

@@ -117,3 +117,23 @@ pub(super) fn beats_its_shared_form(d: &Design, trials: &[Trial], c: &Config, s:
     let gain = (sh.heldout_rmse - s.heldout_rmse) / sh.heldout_rmse.max(1e-300);
     gain >= MIN_ROBUST_GAIN && paired_z(&sh.units, &s.units) >= MIN_Z
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Trials whose gains differ by ±5 % get a gain per trial, validated inside each held-out
+    /// trial; trials of one gain do not.
+    #[test]
+    fn per_trial_gains_enter_only_when_the_trials_differ() {
+        for (jitter, want) in [(0.05, true), (0.0, false)] {
+            let b = fixture::built(&fixture::recs(73_000, |s| s.nuisance.gain_jitter = jitter));
+            let (s, _) = score(&b.d, &b.trials, &b.base_cfg, &b.hat).unwrap();
+            let got = try_gains(&b.d, &b.trials, &b.base_cfg, &s, &b.hat);
+            assert_eq!(got.is_some(), want, "jitter {jitter}");
+            if let Some((c, s2, _, nt)) = got {
+                assert!(c.gains && nt.name == "trial_gain" && s2.heldout_rmse < s.heldout_rmse);
+            }
+        }
+    }
+}

@@ -110,3 +110,32 @@ pub(super) fn predictions(
     }
     predictions
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The final refit frees every onset and time constant with the model: on clean trials the
+    /// onsets land within 30 ms of the simulator's landings, and the predictions cover every
+    /// recording's samples.
+    #[test]
+    fn the_final_refit_lands_the_onsets_and_predicts_every_sample() {
+        let (recs, truth) = fixture::recs_and_truth(91_000, |_| {});
+        let b = fixture::built(&recs);
+        let (base_cfg, hat0, xb) = (b.base_cfg.clone(), b.hat.clone(), b.xb.clone());
+        let mut findings = vec![];
+        let (cur, cur_x, trials, base_trials, xb) = final_refit(&b.d, b.trials.clone(), b.base_eval.clone(), &b.base_fit, (&base_cfg, &hat0, xb), (base_cfg.clone(), b.xb.clone(), &hat0), &mut findings, true);
+        for (tr, tt) in trials.iter().zip(&truth) {
+            for (sg, st) in tr.segs.iter().zip(&tt.steps) {
+                assert!((sg.t0 - st.t_land_s).abs() < 0.03, "onset {} vs landing {}", sg.t0, st.t_land_s);
+            }
+        }
+        let pred = predictions(&recs, &b.d, &trials, &base_trials, (&base_cfg, &hat0, &xb), (&cur, &hat0, &cur_x), &findings);
+        assert_eq!(pred.len(), 3);
+        for (p, r) in pred.iter().zip(&recs) {
+            assert_eq!(p.time_s.len(), r.time_s.len().div_ceil(p.stride));
+            let rms = (p.improved.iter().zip(&p.measured).map(|(a, m)| (a - m).powi(2)).sum::<f64>() / p.improved.len() as f64).sqrt();
+            assert!(rms < 4e-3, "{rms}");
+        }
+    }
+}

@@ -417,3 +417,30 @@ fn final_names(cur: &Config, findings: &mut [Finding], spectrum_exact: Option<&E
     }
     names
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The improved model's first-order part as reported: a level per load (rising) and a τ per
+    /// step near the simulator's; a drift term's parameters in the response unit per second.
+    #[test]
+    fn the_model_is_reported_in_the_sensors_terms() {
+        let rate = 1e-4;
+        let (recs, truth) = fixture::recs_and_truth(93_000, |s| s.effects.drift_v_per_s = rate);
+        let b = fixture::built(&recs);
+        let (levels, taus) = first_order_part(&b.d, &b.base_cfg, &b.xb, &b.trials);
+        assert_eq!(levels.len(), 6);
+        assert!(levels.windows(2).all(|w| w[1][1] > w[0][1]), "{levels:?}");
+        assert_eq!(taus.len(), 30);
+        let truth_tau: Vec<f64> = truth.iter().flat_map(|t| t.steps.iter().map(|s| s.tau_s)).collect();
+        assert!(taus.iter().zip(&truth_tau).all(|(m, t)| (m[1] / t - 1.0).abs() < 0.35), "{taus:?} vs {truth_tau:?}");
+        let steps = ClipSteps::of(&b.trials, None);
+        let ctx = fixture::ctx(&b, &steps, &b.hat);
+        let c = candidate(Effect::BaselineDrift, &b.base_cfg, &ctx).unwrap();
+        let (_, x) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
+        let p = term_params(&b.d, &c, &x, Effect::BaselineDrift, &b.hat);
+        let fitted = p.get("rate_per_s").or(p.get("initial_rate_per_s")).and_then(|v| v.as_f64()).unwrap();
+        assert!((fitted / rate - 1.0).abs() < 0.25, "{p}");
+    }
+}

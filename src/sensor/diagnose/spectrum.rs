@@ -300,3 +300,28 @@ pub(super) fn replace_exact(
     }
     None
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The spectrum's grid spans from the filtered sample to half the longest trial, log-spaced,
+    /// for loads placed by hand (ramps up to 0.6 s) and an actuator's (up to 8 s); the thinned
+    /// trials keep their steps and stay within the row budget.
+    #[test]
+    fn the_spectrum_spans_the_recordings_time_scales() {
+        let b = fixture::built(&fixture::recs(91_000, |_| {}));
+        let span = b.trials[0].span_s();
+        for (actuator, max_ramp) in [(false, 0.6), (true, 8.0)] {
+            let cands = relax_candidates(&b.trials, actuator);
+            let taus = &cands[0].taus;
+            assert!(taus[0] <= 0.2 && *taus.last().unwrap() >= 0.4 * span && *taus.last().unwrap() <= 0.5 * span + 1e-9, "{taus:?}");
+            let ratios: Vec<f64> = taus.windows(2).map(|w| w[1] / w[0]).collect();
+            assert!(ratios.iter().all(|r| (r / ratios[0] - 1.0).abs() < 1e-6), "not log-spaced: {ratios:?}");
+            assert_eq!(cands.iter().map(|c| c.ramp_s).fold(0.0, f64::max), max_ramp);
+        }
+        let thin = thinned(&b.trials, 20_000);
+        assert!(thin.iter().map(|t| t.t.len()).sum::<usize>() <= 20_000);
+        assert!(thin.iter().zip(&b.trials).all(|(a, b)| a.segs.len() == b.segs.len()));
+    }
+}

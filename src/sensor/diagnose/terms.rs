@@ -149,3 +149,32 @@ pub(super) fn without(cur: &Config, idx: usize) -> Config {
     }
     c
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each effect added as a candidate, with its shape parameters, and removed again gives the
+    /// model back: the effect and the shape that goes with it (a clip's steps, a warm-up's τ, a
+    /// rest relaxation's τ); a second relaxation's τ2 is on its grid, relative to the steps' τ.
+    #[test]
+    fn a_candidate_and_its_removal_give_the_model_back() {
+        let b = fixture::built(&fixture::recs(7000, |s| s.effects.saturation_v = 1.55));
+        let steps = ClipSteps::of(&b.trials, clip_level(&b.trials));
+        let ctx = fixture::ctx(&b, &steps, &b.hat);
+        let base = &b.base_cfg;
+        for e in [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation, Effect::RestRelaxation] {
+            let c = candidate(e, base, &ctx).unwrap_or_else(|| panic!("{e:?}: no candidate"));
+            let idx = c.effects.iter().position(|x| *x == e).unwrap_or_else(|| panic!("{e:?} not added"));
+            if e == Effect::Saturation {
+                assert!(c.clip.is_some() && c.tau_fixed.len() == 3 && c.restart.len() == 3, "{c:?}");
+            }
+            if e == Effect::SecondTimeConstant {
+                let m = c.tau2 / ctx.med_tau;
+                assert!(TAU2_GRID.iter().any(|g| (g - m).abs() < 1e-9 * g), "τ2 {} off the grid", c.tau2);
+            }
+            let back = without(&c, idx);
+            assert_eq!((&back.effects, back.clip, &back.tau_fixed, &back.restart, back.rest_tau, back.drift_tau), (&base.effects, base.clip, &base.tau_fixed, &base.restart, base.rest_tau, base.drift_tau), "{e:?}");
+        }
+    }
+}

@@ -1,0 +1,45 @@
+//! Test fixtures for the stages' own tests: three trials of the paper's protocol from family A's
+//! simulator (`params/sensor.toml`, a 20 g preload), with an effect set by `f`, and the baseline
+//! stage built on them.
+
+use super::*;
+use crate::params::sensor::{ProtocolParams, SensorParams};
+use crate::params::SourceFile;
+
+fn load(name: &str) -> SourceFile {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("params").join(name);
+    SourceFile::parse(&path.display().to_string(), std::fs::read_to_string(&path).unwrap()).unwrap()
+}
+
+/// The sensor file's parameters with `f` applied.
+pub(super) fn sensor(f: impl Fn(&mut SensorParams)) -> SensorParams {
+    let mut s = SensorParams::from_source(&load("sensor.toml")).unwrap();
+    f(&mut s);
+    s
+}
+
+/// Three trials (seeds `seed0`, +1, +2) of the 0–1000 g protocol, and their noise-free truth.
+pub(super) fn recs_and_truth(seed0: u64, f: impl Fn(&mut SensorParams)) -> (Vec<Recording>, Vec<crate::sensor::sim::Truth>) {
+    let s = sensor(f);
+    let p = ProtocolParams::from_source(&load("protocol-1000g.toml")).unwrap();
+    (0..3).map(|k| crate::sensor::sim::simulate(&s, &p, 20.0, None, seed0 + k)).unzip()
+}
+
+/// Three trials of the 0–1000 g protocol.
+pub(super) fn recs(seed0: u64, f: impl Fn(&mut SensorParams)) -> Vec<Recording> {
+    recs_and_truth(seed0, f).0
+}
+
+/// The baseline stage on `recs`, with the default options (loads placed by hand).
+pub(super) fn built(recs: &[Recording]) -> Built {
+    build(recs, &Options::default(), None).expect("the baseline is built")
+}
+
+/// The context the selection's stages take, on a built baseline.
+pub(super) fn ctx<'a>(b: &'a Built, clip_steps: &'a ClipSteps, hat: &'a Hat) -> Ctx<'a> {
+    let med_tau = {
+        let mut t: Vec<f64> = b.trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
+        crate::sensor::preprocess::median(&mut t)
+    };
+    Ctx { d: &b.d, trials: &b.trials, hat, clip: clip_level(&b.trials), clip_steps, med_tau }
+}
