@@ -454,6 +454,9 @@ fn cavities_fit(a: &Assembled, pitch: f64) -> (usize, impl Fn(usize) -> f64) {
 /// Adjacent cavities' flanges overlap by this (mm), so the pieces unite into one body each.
 pub const CAVITY_OVERLAP_MM: f64 = 1.0;
 
+/// Builds a conforming mold file: assembles and checks the mold, then lays out the printed pieces
+/// (as many cavities as asked, side by side), the cast cover, the assembly view, the manifest
+/// entry and the summary's lines.
 pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let name = p.name.as_str();
     let (l, a) = assemble(p)?;
@@ -492,7 +495,32 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let (shell_print, core_print) = (side_by_side(&shell_print), side_by_side(&core_print));
     let cover_name = p.cover_name();
     let mat = material(p, a.cover.volume());
-    let piece = |solid: Solid, suffix: &str, genus: i32, to_assembled: serde_json::Value| Part {
+    // to_assembled: rows of a 3×4 matrix [R | t] mapping the print pose back to the assembly
+    let core = mold_piece(p, core_print, "core", (n * (1 + a.vents.len())) as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
+    let shell = mold_piece(p, shell_print, "shell", 0, json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]]));
+    let cover = cover_part(p, &l, &a, cover_print);
+    let exploded = a.core.translate([0.0, 0.0, 25.0]);
+    let assembly = Assembly {
+        name: format!("{name}-assembly"),
+        parts: vec![
+            AssemblyObject::part(format!("{name}-shell"), a.shell.to_mesh()),
+            AssemblyObject::reference(format!("{cover_name} cavity (reference)"), a.cavity.to_mesh()),
+            AssemblyObject::reference(format!("{name}-core (reference, lifted 25 mm)"), exploded.to_mesh()),
+        ],
+    };
+    let mut manifest = Map::new();
+    let over_domes = measured["cover_over_sensing_area_mm"].clone();
+    let entry = manifest_entry(p, &l, &a, measured, [&core.name, &shell.name], &mat, pitch);
+    manifest.insert(name.to_string(), serde_json::Value::Object(entry));
+    let notes = summary_notes(p, &a, &mat, fits, &over_domes);
+    Ok(MoldBuild { parts: vec![core, shell, cover], assemblies: vec![assembly], violations, manifest, notes })
+}
+
+/// A printed piece of the mold (`suffix`: core or shell) in its print pose; `to_assembled` maps
+/// that pose back to the assembly.
+fn mold_piece(p: &MoldParams, solid: Solid, suffix: &str, genus: i32, to_assembled: serde_json::Value) -> Part {
+    let name = p.name.as_str();
+    Part {
         name: format!("{name}-{suffix}"),
         mesh: solid.to_mesh(),
         solid,
@@ -510,10 +538,11 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
             "chordal_tolerance_mm": p.mold.chordal_tolerance_mm,
         }),
         extra: Default::default(),
-    };
-    // to_assembled: rows of a 3×4 matrix [R | t] mapping the print pose back to the assembly
-    let core = piece(core_print, "core", (n * (1 + a.vents.len())) as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
-    let shell = piece(shell_print, "shell", 0, json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]]));
+    }
+}
+
+/// The cast cover as a part, in the fingertip's print frame (`cover_print`), with its domes.
+fn cover_part(p: &MoldParams, l: &Layout, a: &Assembled, cover_print: Solid) -> Part {
     let domes: Vec<serde_json::Value> = l
         .domes
         .iter()
@@ -529,8 +558,8 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
             })
         })
         .collect();
-    let cover = Part {
-        name: cover_name.clone(),
+    Part {
+        name: p.cover_name(),
         mesh: cover_print.to_mesh(),
         solid: cover_print,
         expected_genus: 0,
@@ -541,7 +570,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         write_3mf: false,
         features: json!({
             "kind": "cover",
-            "mold": name,
+            "mold": p.name,
             "fingertip": p.fingertip.name,
             "frame": "the fingertip's print frame: the cover sits on fingertip STL as exported",
             "thickness_mm": p.cover.thickness_mm,
@@ -549,22 +578,19 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
             "shrinkage_scale": a.k,
         }),
         extra: Default::default(),
-    };
-    let exploded = a.core.translate([0.0, 0.0, 25.0]);
-    let assembly = Assembly {
-        name: format!("{name}-assembly"),
-        parts: vec![
-            AssemblyObject::part(format!("{name}-shell"), a.shell.to_mesh()),
-            AssemblyObject::reference(format!("{cover_name} cavity (reference)"), a.cavity.to_mesh()),
-            AssemblyObject::reference(format!("{name}-core (reference, lifted 25 mm)"), exploded.to_mesh()),
-        ],
-    };
-    let mut manifest = Map::new();
+    }
+}
+
+/// The mold's `molds` manifest entry: what it is made of, the checks' measurements, and what an
+/// independent check needs to reassemble it from the written files.
+fn manifest_entry(p: &MoldParams, l: &Layout, a: &Assembled, measured: serde_json::Value, pieces: [&str; 2], mat: &serde_json::Value, pitch: f64) -> Map<String, serde_json::Value> {
+    let name = p.name.as_str();
+    let n = p.mold.cavities;
     let mut entry = Map::new();
     entry.insert("style".into(), json!("conforming"));
     entry.insert("fingertip".into(), json!(p.fingertip_file));
-    entry.insert("pieces".into(), json!([core.name, shell.name]));
-    entry.insert("cover".into(), json!(cover_name));
+    entry.insert("pieces".into(), json!(pieces));
+    entry.insert("cover".into(), json!(p.cover_name()));
     entry.insert("material".into(), mat.clone());
     entry.insert(
         "demolding".into(),
@@ -574,37 +600,10 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         )),
     );
     entry.insert("parting_plane_z_mm".into(), json!(a.z_parting));
-    let over_domes = measured["cover_over_sensing_area_mm"].clone();
     entry.insert("checks".into(), measured);
     entry.insert("assembly".into(), json!(format!("{name}-assembly.3mf")));
-    // the fingertip's print frame (y, z, x of the design frame) → design → the mold's frame
-    let dm = l.frame.rows_to_mold();
-    let p2d = [[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]];
-    let mut print_to_mold = [[0.0; 4]; 3];
-    for r in 0..3 {
-        for col in 0..4 {
-            let mut v: f64 = (0..3).map(|k| dm[r][k] * p2d[k][col]).sum();
-            if col == 3 {
-                v += dm[r][3];
-            }
-            print_to_mold[r][col] = v;
-        }
-    }
-    let fm = |q: P3| l.frame.to_mold(q);
-    let fd = |n: P3| l.frame.dir_to_mold(n);
     // what an independent check needs to reassemble the mold from the written files
-    entry.insert(
-        "frames".into(),
-        json!({
-            "core_print_to_assembled": [[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]],
-            "shell_print_to_assembled": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]],
-            "cover_print_to_assembled": print_to_mold,
-            "fingertip_print_to_assembled": print_to_mold,
-            "design_to_assembled": l.frame.rows_to_mold(),
-            "cavity_scale": a.k,
-            "cavity_scale_center": a.scale_center,
-        }),
-    );
+    entry.insert("frames".into(), frames(l, a));
     entry.insert("fingertip_part".into(), json!(p.fingertip.name));
     entry.insert("parting_z_mm".into(), json!(a.z_parting));
     entry.insert("flange_top_z_mm".into(), json!(a.z_top));
@@ -623,6 +622,8 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     );
     entry.insert("pour_up".into(), json!([0.0, 0.0, 1.0]));
     entry.insert("unvented_pockets".into(), json!(a.unvented_pockets));
+    let fm = |q: P3| l.frame.to_mold(q);
+    let fd = |n: P3| l.frame.dir_to_mold(n);
     entry.insert(
         "domes_assembled".into(),
         json!(l
@@ -654,9 +655,43 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("cavities".into(), json!(n));
     entry.insert("cavity_pitch_mm".into(), json!(if n > 1 { pitch } else { 0.0 }));
     entry.insert("chordal_tolerance_mm".into(), json!(p.mold.chordal_tolerance_mm));
-    manifest.insert(name.to_string(), serde_json::Value::Object(entry));
-    let mut notes = notes(name, &mat);
-    notes.push(pour_note(name, n, fits, &mat));
+    entry
+}
+
+/// The manifest's `frames`: each written piece's print pose, and the design frame, mapped to the
+/// assembled mold.
+fn frames(l: &Layout, a: &Assembled) -> serde_json::Value {
+    let z_lo = a.bounds.0[2];
+    // the fingertip's print frame (y, z, x of the design frame) → design → the mold's frame
+    let dm = l.frame.rows_to_mold();
+    let p2d = [[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]];
+    let mut print_to_mold = [[0.0; 4]; 3];
+    for r in 0..3 {
+        for col in 0..4 {
+            let mut v: f64 = (0..3).map(|k| dm[r][k] * p2d[k][col]).sum();
+            if col == 3 {
+                v += dm[r][3];
+            }
+            print_to_mold[r][col] = v;
+        }
+    }
+    json!({
+        "core_print_to_assembled": [[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]],
+        "shell_print_to_assembled": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]],
+        "cover_print_to_assembled": print_to_mold,
+        "fingertip_print_to_assembled": print_to_mold,
+        "design_to_assembled": l.frame.rows_to_mold(),
+        "cavity_scale": a.k,
+        "cavity_scale_center": a.scale_center,
+    })
+}
+
+/// The summary's lines: material, pours, the cover over each sensing area (`over_domes`, from the
+/// checks) and a warning for each pocket no vent reaches.
+fn summary_notes(p: &MoldParams, a: &Assembled, mat: &serde_json::Value, fits: usize, over_domes: &serde_json::Value) -> Vec<String> {
+    let name = p.name.as_str();
+    let mut notes = notes(name, mat);
+    notes.push(pour_note(name, p.mold.cavities, fits, mat));
     for (i, c) in over_domes.as_array().into_iter().flatten().enumerate() {
         let f = |k: &str| c[k].as_f64().unwrap_or(f64::NAN);
         let profile = match p.cover.profile {
@@ -677,5 +712,5 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     for q in &a.unvented_pockets {
         notes.push(format!("{name}: WARNING: the cavity's ceiling has a pocket at ({:.2}, {:.2}, {:.2}) (mold frame) that no straight vent reaches: it will trap air beside the dome; tilt the seat or the demolding direction", q[0], q[1], q[2]));
     }
-    Ok(MoldBuild { parts: vec![core, shell, cover], assemblies: vec![assembly], violations, manifest, notes })
+    notes
 }
