@@ -261,6 +261,7 @@ struct CavityRegion {
 }
 
 impl CavityRegion {
+    /// The region of mold `p` laid out by `l`, well outside its cover.
     fn new(p: &MoldParams, l: &Layout) -> CavityRegion {
         let t = p.cover.thickness_mm;
         CavityRegion {
