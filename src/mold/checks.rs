@@ -6,7 +6,7 @@ use super::Layout;
 use crate::checks::Violation;
 use crate::fingertip::{self, Shape};
 use crate::mesh::{self, add, dot, frame, norm, scale, sub, Solid, P3};
-use crate::params::mold::{CoverProfile, MoldParams};
+use crate::params::mold::{CoverProfile, Mold, MoldParams};
 use serde_json::{json, Value};
 
 /// Largest overlap (mm³) two assembled pieces may have: touching faces, no interference.
@@ -48,7 +48,6 @@ pub fn offset_along(shape: &Shape, t: f64, q: P3, dir: P3, s0: f64) -> Option<f6
     (norm(f(x, phi, s)) < 1e-6).then_some(s)
 }
 
-/// The conforming mold's checks. Returns the violations and the measurements.
 /// The cover's thickness over each sensing area, along the seat normal: at the centre and on
 /// circles at 0.5, 0.9 and 0.98 of the dome's radius (8 points each), from the dome cavity to the
 /// outer surface. A uniform cover's window makes it the nominal; a cover that follows the pad (its
@@ -95,12 +94,53 @@ pub fn exits(a: &Assembled) -> Vec<super::trapped_air::Exit> {
     std::iter::once(super::trapped_air::Exit { xy: a.sprue.0, r: a.sprue.1, from_z: a.z_parting }).chain(a.vents.iter().copied()).collect()
 }
 
+/// The conforming mold's checks. Returns the violations and the measurements.
 pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>, Value) {
     let name = p.name.as_str();
     let m = &p.mold;
     let mut out = Vec::new();
+    let (core_shell, core_cav, shell_cav) = overlap_checks(name, a, &mut out);
+    let (key_gaps, key_walls) = key_checks(name, m, a, &mut out);
+    let openings_ok = opening_checks(name, a, &mut out);
+    let AirRegions { open, sealed, reaching_out, enclosed, cavity_vol } = air_region_checks(name, m, a, &mut out);
+    let (cover_vol, k3) = cavity_volume_check(name, a, cavity_vol, &mut out);
+    let (inner_max, inner_n) = inner_surface_check(p, l, a, &mut out);
+    let (dome_overlap, dome_gap, humps) = dome_checks(p, l, a, &mut out);
+    let over = cover_over_domes(l, a);
+    uniform_cover_check(p, &over, &mut out);
+    let (min_slope, wrong, checked) = undercut_checks(name, m, a, &mut out);
+    let air = trapped_air_check(name, a, &mut out);
+    let measured = json!({
+        "trapped_air_pockets": air.iter().map(|q| json!({"apex": q.apex, "depth_mm": q.depth_mm})).collect::<Vec<_>>(),
+        "cover_over_sensing_area_mm": over,
+        "overlap_core_shell_mm3": core_shell,
+        "overlap_core_cavity_mm3": core_cav,
+        "overlap_shell_cavity_mm3": shell_cav,
+        "key_gaps_mm": key_gaps,
+        "key_hole_walls_mm": key_walls,
+        "openings_reach_cavity": openings_ok,
+        "air_regions_open": open.len(),
+        "air_regions_sealed": sealed.len(),
+        "sealed_air_at_outer_faces_mm3": reaching_out,
+        "enclosed_volume_mm3": enclosed,
+        "cavity_volume_mm3": cavity_vol,
+        "cover_volume_mm3": cover_vol,
+        "shrinkage_volume_factor": k3,
+        "inner_surface_max_gap_mm": inner_max,
+        "inner_surface_faces_checked": inner_n,
+        "dome_overlap_mm3": dome_overlap,
+        "dome_min_gap_mm": dome_gap,
+        "hump_over_dome_mm": humps,
+        "min_wall_slope_deg": min_slope,
+        "faces_facing_wrong_piece": wrong,
+        "cavity_faces_checked": checked,
+    });
+    (out, measured)
+}
 
-    // 1. the pieces do not intersect when assembled, nor reach into the cavity
+/// Check 1: the pieces do not intersect when assembled, nor reach into the cavity. Returns the
+/// core/shell, core/cavity and shell/cavity overlaps (mm³).
+fn overlap_checks(name: &str, a: &Assembled, out: &mut Vec<Violation>) -> (f64, f64, f64) {
     let core_shell = a.core.intersection(&a.shell).volume();
     let core_cav = a.core.intersection(&a.cavity).volume();
     let shell_cav = a.shell.intersection(&a.cavity).volume();
@@ -109,8 +149,12 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
             out.push(v(name, "assembled mold pieces must not intersect", format!("{what} overlap {vol:.4} mm³")));
         }
     }
+    (core_shell, core_cav, shell_cav)
+}
 
-    // 2. keys fit their holes with the stated clearance, and their holes keep a wall to the cavity
+/// Check 2: keys fit their holes with the stated clearance, and their holes keep a wall to the
+/// cavity. Returns each key's gap and each hole's wall (mm).
+fn key_checks(name: &str, m: &Mold, a: &Assembled, out: &mut Vec<Violation>) -> (Vec<f64>, Vec<f64>) {
     let c = m.key_clearance_mm;
     let cos_d = m.draft_deg.to_radians().cos();
     let mut key_gaps = Vec::new();
@@ -128,9 +172,12 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
             out.push(v(name, "key holes must keep the minimum wall to the cavity", format!("key {i}: {wall:.2} mm (minimum {})", m.min_wall_mm)));
         }
     }
+    (key_gaps, key_walls)
+}
 
-    // 3. the sprue and every vent open straight into the cavity: at the rim, or, for a vent from a
-    // pocket in the ceiling, at the pocket's top
+/// Check 3: the sprue and every vent open straight into the cavity: at the rim, or, for a vent
+/// from a pocket in the ceiling, at the pocket's top. Returns whether each does.
+fn opening_checks(name: &str, a: &Assembled, out: &mut Vec<Violation>) -> Vec<bool> {
     let mut openings_ok = Vec::new();
     for (what, o) in exits(a).iter().enumerate().map(|(i, o)| (if i == 0 { "sprue" } else { "vent" }, o)) {
         let xy = o.xy;
@@ -147,11 +194,27 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
             ));
         }
     }
+    openings_ok
+}
 
-    // 4. exactly one cavity, reachable from outside only through the sprue and the vents. The
-    // mold's pieces fill their bounding box but for the cavity and the openings, so the box less
-    // the pieces is the air inside the mold: with the openings open it must be one region that
-    // reaches the top face; with them plugged, one region inside the box with the cavity's volume.
+/// What check 4 measured: the air regions inside the mold with its openings open and plugged.
+struct AirRegions {
+    /// Air regions with the openings open.
+    open: Vec<Solid>,
+    /// Volumes of the air regions with the openings plugged (mm³).
+    sealed: Vec<f64>,
+    /// Sealed air at the mold's outer faces (mm³).
+    reaching_out: f64,
+    /// The one sealed region's volume, NaN unless there is exactly one (mm³).
+    enclosed: f64,
+    cavity_vol: f64,
+}
+
+/// Check 4: exactly one cavity, reachable from outside only through the sprue and the vents. The
+/// mold's pieces fill their bounding box but for the cavity and the openings, so the box less
+/// the pieces is the air inside the mold: with the openings open it must be one region that
+/// reaches the top face; with them plugged, one region inside the box with the cavity's volume.
+fn air_region_checks(name: &str, m: &Mold, a: &Assembled, out: &mut Vec<Violation>) -> AirRegions {
     let (lo, hi) = a.bounds;
     let moldbox = Solid::cuboid(lo, hi);
     let mut fill = vec![a.core.clone(), a.shell.clone()];
@@ -205,18 +268,35 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
             format!("{} air regions with the openings plugged (expected 1), {reaching_out:.5} mm³ of air at the mold's outer faces; enclosed {enclosed:.3} mm³ vs cavity {cavity_vol:.3} mm³", sealed.len()),
         ));
     }
+    AirRegions { open, sealed, reaching_out, enclosed, cavity_vol }
+}
+
+/// Check 4, continued: the cavity's volume is the cover's times the shrinkage allowance. Returns
+/// the cover's volume (mm³) and the volume factor.
+fn cavity_volume_check(name: &str, a: &Assembled, cavity_vol: f64, out: &mut Vec<Violation>) -> (f64, f64) {
     let cover_vol = a.cover.volume();
     let k3 = a.k.powi(3);
     if ((cavity_vol / k3 - cover_vol) / cover_vol).abs() > 1e-6 {
         out.push(v(name, "the cavity's volume must equal the cover's (times the shrinkage allowance)", format!("cavity {cavity_vol:.3} / {k3:.5} vs cover {cover_vol:.3} mm³")));
     }
+    (cover_vol, k3)
+}
 
-    // 5. the cover's inner surface lies on the fingertip; domes fit; no hump over them
+/// Check 5: the cover's inner surface lies on the fingertip. Returns the largest gap (mm) and the
+/// number of faces checked.
+fn inner_surface_check(p: &MoldParams, l: &Layout, a: &Assembled, out: &mut Vec<Violation>) -> (f64, usize) {
     let (inner_max, inner_n) = inner_gap(p, l, a);
     if inner_max > MAX_INNER_GAP_MM {
-        out.push(v(name, "the cover's inner surface must lie on the fingertip's pad", format!("max gap {inner_max:.3} mm over {inner_n} faces (limit {MAX_INNER_GAP_MM})")));
+        out.push(v(&p.name, "the cover's inner surface must lie on the fingertip's pad", format!("max gap {inner_max:.3} mm over {inner_n} faces (limit {MAX_INNER_GAP_MM})")));
     }
-    let tol = m.chordal_tolerance_mm;
+    (inner_max, inner_n)
+}
+
+/// Check 5, continued: each dome fits its cavity, and a follow_pad cover does not hump over it.
+/// Returns each dome's overlap with the cover (mm³), its gap to it (mm) and the humps (mm).
+fn dome_checks(p: &MoldParams, l: &Layout, a: &Assembled, out: &mut Vec<Violation>) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let name = p.name.as_str();
+    let tol = p.mold.chordal_tolerance_mm;
     let mut dome_overlap = Vec::new();
     let mut dome_gap = Vec::new();
     let mut humps = Vec::new();
@@ -243,8 +323,12 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
             }
         }
     }
+    (dome_overlap, dome_gap, humps)
+}
 
-    let over = cover_over_domes(l, a);
+/// Check 5, last: a uniform cover is the nominal thickness ±10 % over each sensing area (`over`,
+/// from [`cover_over_domes`]).
+fn uniform_cover_check(p: &MoldParams, over: &[Value], out: &mut Vec<Violation>) {
     if p.cover.profile == CoverProfile::Uniform {
         let nominal = p.cover.thickness_mm;
         for (i, c) in over.iter().enumerate() {
@@ -252,16 +336,19 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
             #[allow(clippy::neg_cmp_op_on_partial_ord)] // a NaN (no hit) must fail the rule too
             if n < 25 || !(lo >= (1.0 - UNIFORM_TOLERANCE) * nominal && hi <= (1.0 + UNIFORM_TOLERANCE) * nominal) {
                 out.push(v(
-                    name,
+                    &p.name,
                     "a uniform cover is the nominal thickness ±10 % over each sensing area",
                     format!("sensor[{i}]: {lo:.3}-{hi:.3} mm over {n} of 25 points, nominal {nominal} mm (allowed {:.3}-{:.3})", (1.0 - UNIFORM_TOLERANCE) * nominal, (1.0 + UNIFORM_TOLERANCE) * nominal),
                 ));
             }
         }
     }
+}
 
-    // 6. no undercut: every cavity face slopes by at least the draft and belongs to the piece
-    // that leaves in its direction (faces looking up to the core, looking down to the shell)
+/// Check 6: no undercut: every cavity face slopes by at least the draft and belongs to the piece
+/// that leaves in its direction (faces looking up to the core, looking down to the shell).
+/// Returns the steepest wall's slope (deg), the faces facing the wrong piece and the faces checked.
+fn undercut_checks(name: &str, m: &Mold, a: &Assembled, out: &mut Vec<Violation>) -> (f64, usize, usize) {
     let (min_slope, wrong, checked) = draft_check(a, m.draft_deg);
     if min_slope + 1e-3 < m.draft_deg {
         out.push(v(
@@ -273,8 +360,11 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     if wrong > 0 {
         out.push(v(name, "no undercut: each cavity face must belong to the piece that leaves in its direction", format!("{wrong} of {checked} faces face the wrong piece")));
     }
+    (min_slope, wrong, checked)
+}
 
-    // 7. no air trapped in the cavity's ceiling when poured
+/// Check 7: no air trapped in the cavity's ceiling when poured. Returns every pocket found.
+fn trapped_air_check(name: &str, a: &Assembled, out: &mut Vec<Violation>) -> Vec<super::trapped_air::Pocket> {
     let air = super::trapped_air::pockets(&a.cavity.to_mesh(), a.z_parting, &exits(a));
     // a pocket the build could not vent is already reported (a warning and the manifest's
     // unvented_pockets); any other is a fault of the mold
@@ -286,32 +376,7 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
             unexpected.iter().map(|q| format!("a pocket {:.2} mm deep at ({:.2}, {:.2}, {:.2})", q.depth_mm, q.apex[0], q.apex[1], q.apex[2])).collect::<Vec<_>>().join("; "),
         ));
     }
-    let measured = json!({
-        "trapped_air_pockets": air.iter().map(|q| json!({"apex": q.apex, "depth_mm": q.depth_mm})).collect::<Vec<_>>(),
-        "cover_over_sensing_area_mm": over,
-        "overlap_core_shell_mm3": core_shell,
-        "overlap_core_cavity_mm3": core_cav,
-        "overlap_shell_cavity_mm3": shell_cav,
-        "key_gaps_mm": key_gaps,
-        "key_hole_walls_mm": key_walls,
-        "openings_reach_cavity": openings_ok,
-        "air_regions_open": open.len(),
-        "air_regions_sealed": sealed.len(),
-        "sealed_air_at_outer_faces_mm3": reaching_out,
-        "enclosed_volume_mm3": enclosed,
-        "cavity_volume_mm3": cavity_vol,
-        "cover_volume_mm3": cover_vol,
-        "shrinkage_volume_factor": k3,
-        "inner_surface_max_gap_mm": inner_max,
-        "inner_surface_faces_checked": inner_n,
-        "dome_overlap_mm3": dome_overlap,
-        "dome_min_gap_mm": dome_gap,
-        "hump_over_dome_mm": humps,
-        "min_wall_slope_deg": min_slope,
-        "faces_facing_wrong_piece": wrong,
-        "cavity_faces_checked": checked,
-    });
-    (out, measured)
+    air
 }
 
 /// Largest gap (along the exact body's normal at the face's centre) between the cover's inner

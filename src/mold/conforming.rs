@@ -7,7 +7,7 @@ use super::{checks, layout, material, notes, openings, Layout, MoldBuild};
 use crate::error::{Error, Result};
 use crate::fingertip;
 use crate::mesh::{scale, segments, sub, Solid, P3};
-use crate::params::mold::{CoverProfile, MoldParams};
+use crate::params::mold::{CoverProfile, Mold, MoldParams};
 use crate::part::{Assembly, AssemblyObject, Part};
 use serde_json::{json, Map};
 
@@ -148,21 +148,15 @@ pub fn sprue_radius(m: &crate::params::mold::Mold, above: f64) -> f64 {
     (m.sprue_diameter_mm / 2.0 + above * m.sprue_taper_deg.to_radians().tan()).max(0.05)
 }
 
+/// Assembles the conforming mold in the mold frame: the cover cast between the pad's offset and
+/// the core's surface, the cavity grown by the shrinkage, the core (flange, plug, pins, sprue and
+/// vents) and the shell (key holes), with everything the checks need.
 pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let name = p.name.as_str();
     let l = layout(p).map_err(|e| Error::geometry(name, e))?;
     let (m, c) = (&p.mold, &p.cover);
-    let tol = m.chordal_tolerance_mm;
-    let t = c.thickness_mm;
-    let s = &l.shape;
     let ze = l.z_parting;
-    let body = Solid::from_mesh(&s.body_mesh(tol, name)?, name)?;
-    let outer = Solid::from_mesh(&s.offset_mesh(t, tol, name)?, name)?;
-    let outer = match c.profile {
-        CoverProfile::Uniform => uniform_windows(outer, &l, t, tol).map_err(|e| Error::geometry(name, e))?,
-        CoverProfile::FollowPad => outer,
-    };
-    let surface = core_surface(p, &l, &body, tol);
+    let (outer_d, surface_d) = cover_surfaces(p, &l)?;
     // into the mold's frame (the opening direction is +z there)
     let to_mold = |x: &Solid| {
         if l.frame.alpha == 0.0 {
@@ -172,39 +166,10 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
             x.place(a, b, c, o)
         }
     };
-    let (outer_d, surface_d) = (outer, surface);
     let (outer, surface) = (to_mold(&outer_d), to_mold(&surface_d));
     let xs = l.x_start_m;
-
-    // the cavity's region: below the parting plane and beyond the cover's end plane, which leans
-    // by the draft (x grows downward) so the shell drops off the cover's end and the core's plug
-    // lifts off it; before that plane the shell is solid
-    let big_y = p.fingertip.body.width_mm + 2.0 * t + 20.0;
-    let depth = p.fingertip.body.thickness_mm + 2.0 * t + 20.0;
-    let far_x = s.length + t + 10.0;
-    let tan = m.draft_deg.to_radians().tan();
-    // (`up` extends it above the parting plane, `back` behind the end plane: the plug cut with
-    // them overlaps the flange, and the cover is cut with no coplanar faces)
-    let region = |up: f64, back: f64| {
-        let mut hull = Vec::new();
-        for y in [-big_y, big_y] {
-            for z in [ze + up, ze - depth] {
-                hull.push([xs - back + tan * (ze - z), y, z]);
-                hull.push([far_x, y, z]);
-            }
-        }
-        Solid::hull(&hull)
-    };
-    let cup = outer.intersection(&region(0.0, 0.0));
-    // the plug reaches 1 mm into the flange so the two unite robustly; that reach is the plug's own
-    // last millimetre lifted (the pad narrows downward, so it stays inside the plug's top face and
-    // cannot overhang the rim, the sprue or a vent)
-    let plug_below = surface.intersection(&region(0.0, 0.0));
-    let slab = Solid::cuboid([-1.0, -big_y, ze - 1.0], [far_x, big_y, ze]);
-    let plug = plug_below.union(&plug_below.intersection(&slab).translate([0.0, 0.0, 1.0]));
-    let plug_cut = surface.intersection(&region(1.0, 0.5));
-    let (cover, _) = cup.difference(&plug_cut).drop_slivers(1e-6);
-    cover.ok(name)?;
+    let region = CavityRegion::new(p, &l);
+    let (cup, plug, cover) = cast_cover(name, &region, &outer, &surface)?;
 
     // the mold's cavity is the cover grown by the shrinkage, about a point of the parting plane
     let k = 1.0 + c.shrinkage_percent / 100.0;
@@ -212,24 +177,167 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     let cup_k = cup.scale_about(k, center);
     let plug_k = plug.scale_about(k, center);
     let cavity = cover.scale_about(k, center);
-    let (lo, hi) = cup_k.bbox();
-    let w = m.wall_thickness_mm;
-    let x_lo_k = xs - k * w;
     let (sprue_xy, vent_xy) = openings(p, &l);
     // they were placed on the nominal rim: move them with the cavity's growth
     let grow = |q: [f64; 2]| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1])];
     let (sprue_xy, vent_xy): ([f64; 2], Vec<[f64; 2]>) = (grow(sprue_xy), vent_xy.into_iter().map(grow).collect());
+    let fl = flange(m, &cup_k, xs - k * m.wall_thickness_mm, ze, sprue_xy, &vent_xy);
+    let (pins, holes, key_holes) = registration_keys(m, &fl, ze);
+    let openings_cut = opening_cutters(m, sprue_xy, &vent_xy, ze);
+    // a vent from every high point of the cavity's ceiling that is not the rim: the recessed flat
+    // round a tilted seat is an upside-down pocket whose highest point traps air (issue 18, item 3)
+    let grow_p = |q: P3| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1]), center[2] + k * (q[2] - center[2])];
+    let pockets: Vec<P3> = flat_pocket_tops(p, &l).into_iter().map(grow_p).collect();
+    let flange = Solid::cuboid([fl.x_lo, -fl.half_y, ze], [fl.x_hi, fl.half_y, fl.z_top]).difference(&Solid::union_all(&openings_cut).expect("sprue"));
+    let mut core_parts = vec![flange, plug_k];
+    core_parts.extend(pins.iter().cloned());
+    let core = Solid::union_all(&core_parts).expect("core");
+    let (core, pockets, unvented) = vent_pockets(core, &cavity, &pockets, m, ze, fl.z_top);
+    // the shell's hollow: the cup carried on 1 mm above the parting plane, so the shell's top face
+    // is cut through, not left coplanar with the cup's rim (which can leave a film over the rim)
+    let mut shell_cut = vec![outer.intersection(&region.hull(1.0, 0.0)).scale_about(k, center)];
+    shell_cut.extend(holes.iter().cloned());
+    let shell = Solid::cuboid([fl.x_lo, -fl.half_y, fl.z_lo], [fl.x_hi, fl.half_y, ze]).difference(&Solid::union_all(&shell_cut).expect("cup"));
+    core.ok(&format!("{name}-core"))?;
+    shell.ok(&format!("{name}-shell"))?;
+    let cover = if l.frame.alpha == 0.0 {
+        cover
+    } else {
+        let (a, b, c, o) = l.frame.to_design_columns();
+        cover.place(a, b, c, o)
+    };
+    let (rs, rv) = (m.sprue_diameter_mm / 2.0, m.vent_diameter_mm / 2.0);
+    let a = Assembled {
+        core,
+        shell,
+        cavity,
+        cover,
+        core_surface: surface_d,
+        k,
+        scale_center: center,
+        z_parting: ze,
+        z_top: fl.z_top,
+        sprue: (sprue_xy, rs),
+        vents: vent_xy.iter().map(|v| Exit { xy: *v, r: rv, from_z: ze }).chain(pockets.iter().map(|q| Exit { xy: [q[0], q[1]], r: rv, from_z: q[2] })).collect(),
+        key_holes,
+        unvented_pockets: unvented,
+        pins,
+        holes,
+        bounds: ([fl.x_lo, -fl.half_y, fl.z_lo], [fl.x_hi, fl.half_y, fl.z_top]),
+    };
+    Ok((l, a))
+}
+
+/// Surface stage: the cover's outer solid (the pad's exact offset, with a uniform cover's
+/// windows) and the core's surface (pad, flat seats, dome bosses), nominal, in the design frame.
+fn cover_surfaces(p: &MoldParams, l: &Layout) -> Result<(Solid, Solid)> {
+    let name = p.name.as_str();
+    let tol = p.mold.chordal_tolerance_mm;
+    let t = p.cover.thickness_mm;
+    let s = &l.shape;
+    let body = Solid::from_mesh(&s.body_mesh(tol, name)?, name)?;
+    let outer = Solid::from_mesh(&s.offset_mesh(t, tol, name)?, name)?;
+    let outer = match p.cover.profile {
+        CoverProfile::Uniform => uniform_windows(outer, l, t, tol).map_err(|e| Error::geometry(name, e))?,
+        CoverProfile::FollowPad => outer,
+    };
+    let surface = core_surface(p, l, &body, tol);
+    Ok((outer, surface))
+}
+
+/// The cavity's region in the mold frame: below the parting plane and beyond the cover's end
+/// plane, which leans by the draft (x grows downward) so the shell drops off the cover's end and
+/// the core's plug lifts off it; before that plane the shell is solid.
+struct CavityRegion {
+    /// The cover's end plane at the parting plane (x) and the parting plane (z).
+    xs: f64,
+    ze: f64,
+    /// Half-width, depth and far end of the region: well outside the cover.
+    big_y: f64,
+    depth: f64,
+    far_x: f64,
+    /// The end plane's lean (tan of the draft).
+    tan: f64,
+}
+
+impl CavityRegion {
+    /// The region of mold `p` laid out by `l`, well outside its cover.
+    fn new(p: &MoldParams, l: &Layout) -> CavityRegion {
+        let t = p.cover.thickness_mm;
+        CavityRegion {
+            xs: l.x_start_m,
+            ze: l.z_parting,
+            big_y: p.fingertip.body.width_mm + 2.0 * t + 20.0,
+            depth: p.fingertip.body.thickness_mm + 2.0 * t + 20.0,
+            far_x: l.shape.length + t + 10.0,
+            tan: p.mold.draft_deg.to_radians().tan(),
+        }
+    }
+
+    /// The region as a solid. `up` extends it above the parting plane, `back` behind the end
+    /// plane: the plug cut with them overlaps the flange, and the cover is cut with no coplanar
+    /// faces.
+    fn hull(&self, up: f64, back: f64) -> Solid {
+        let (xs, ze, tan) = (self.xs, self.ze, self.tan);
+        let mut hull = Vec::new();
+        for y in [-self.big_y, self.big_y] {
+            for z in [ze + up, ze - self.depth] {
+                hull.push([xs - back + tan * (ze - z), y, z]);
+                hull.push([self.far_x, y, z]);
+            }
+        }
+        Solid::hull(&hull)
+    }
+}
+
+/// Cast stage, in the mold frame at nominal size: the cup (the offset solid within the cavity's
+/// region), the core's plug, and the cover between them. Returns (cup, plug, cover).
+fn cast_cover(name: &str, region: &CavityRegion, outer: &Solid, surface: &Solid) -> Result<(Solid, Solid, Solid)> {
+    let cup = outer.intersection(&region.hull(0.0, 0.0));
+    // the plug reaches 1 mm into the flange so the two unite robustly; that reach is the plug's own
+    // last millimetre lifted (the pad narrows downward, so it stays inside the plug's top face and
+    // cannot overhang the rim, the sprue or a vent)
+    let plug_below = surface.intersection(&region.hull(0.0, 0.0));
+    let slab = Solid::cuboid([-1.0, -region.big_y, region.ze - 1.0], [region.far_x, region.big_y, region.ze]);
+    let plug = plug_below.union(&plug_below.intersection(&slab).translate([0.0, 0.0, 1.0]));
+    let plug_cut = surface.intersection(&region.hull(1.0, 0.5));
+    let (cover, _) = cup.difference(&plug_cut).drop_slivers(1e-6);
+    cover.ok(name)?;
+    Ok((cup, plug, cover))
+}
+
+/// The core's flange and the shell's block in the mold frame: x from `x_lo` to `x_hi`, y within
+/// ±`half_y`, z from the shell's floor `z_lo` to the flange's top `z_top`.
+struct Flange {
+    x_lo: f64,
+    x_hi: f64,
+    half_y: f64,
+    z_lo: f64,
+    z_top: f64,
+}
+
+/// Flange stage: the block round the grown cup (`cup_k`) from `x_lo`, a wall thick, holding the
+/// keys, the sprue (it widens to its top) and the vents with a wall round them.
+fn flange(m: &Mold, cup_k: &Solid, x_lo: f64, ze: f64, sprue_xy: [f64; 2], vent_xy: &[[f64; 2]]) -> Flange {
+    let (lo, hi) = cup_k.bbox();
+    let w = m.wall_thickness_mm;
     let (kr, kc) = (m.key_diameter_mm / 2.0, m.key_clearance_mm);
     // the flange must hold the sprue (it widens to its top) and the vents with a wall round them
     let r_sprue_top = sprue_radius(m, w + 1.0);
     let half_y = (lo[1].abs().max(hi[1].abs()) + 2.0 * w + 2.0 * (kr + kc)).max(sprue_xy[1].abs() + r_sprue_top + m.min_wall_mm);
     let x_hi =
         (hi[0] + w).max(sprue_xy[0] + r_sprue_top + m.min_wall_mm).max(vent_xy.iter().map(|v| v[0] + m.vent_diameter_mm / 2.0 + m.min_wall_mm).fold(f64::NEG_INFINITY, f64::max));
-    let z_lo = lo[2] - w;
-    let z_top = ze + w;
+    Flange { x_lo, x_hi, half_y, z_lo: lo[2] - w, z_top: ze + w }
+}
 
-    // registration keys: tapered pins under the flange, holes in the shell's top face
+/// Key stage: registration keys, tapered pins under the flange, holes in the shell's top face.
+/// Returns the pins, the holes and the holes' manifest entries.
+fn registration_keys(m: &Mold, fl: &Flange, ze: f64) -> (Vec<Solid>, Vec<Solid>, Vec<serde_json::Value>) {
+    let tol = m.chordal_tolerance_mm;
+    let w = m.wall_thickness_mm;
+    let (kr, kc) = (m.key_diameter_mm / 2.0, m.key_clearance_mm);
     let inset = w + kr + kc;
+    let (x_lo_k, x_hi, half_y) = (fl.x_lo, fl.x_hi, fl.half_y);
     let corners = [[x_lo_k + inset, -half_y + inset], [x_hi - inset, half_y - inset], [x_lo_k + inset, half_y - inset], [x_hi - inset, -half_y + inset]];
     let dtan = m.draft_deg.to_radians().tan();
     let (h, lift) = (m.key_height_mm, 0.5);
@@ -242,27 +350,32 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
         pins.push(Solid::cylinder(top, DOWN, lift + h, kr + lift * dtan, kr - h * dtan, segments(kr + kc, tol)));
         holes.push(Solid::cylinder(top, DOWN, lift + h + kc, kr + kc + lift * dtan, kr + kc - (h + kc) * dtan, segments(kr + kc, tol)));
     }
+    (pins, holes, key_holes)
+}
 
-    // sprue (widening upward) and vents through the flange
-    let rs = m.sprue_diameter_mm / 2.0;
+/// Opening stage: the cutters of the sprue (widening upward) and the vents through the flange.
+fn opening_cutters(m: &Mold, sprue_xy: [f64; 2], vent_xy: &[[f64; 2]], ze: f64) -> Vec<Solid> {
+    let tol = m.chordal_tolerance_mm;
+    let w = m.wall_thickness_mm;
+    let r_sprue_top = sprue_radius(m, w + 1.0);
     let mut openings_cut = vec![Solid::cylinder([sprue_xy[0], sprue_xy[1], ze - 1.0], UP, w + 2.0, sprue_radius(m, -1.0), r_sprue_top, segments(sprue_radius(m, w), tol))];
     let rv = m.vent_diameter_mm / 2.0;
-    for v in &vent_xy {
+    for v in vent_xy {
         openings_cut.push(Solid::cylinder([v[0], v[1], ze - 1.0], UP, w + 2.0, rv, rv, segments(rv, tol)));
     }
-    // a vent from every high point of the cavity's ceiling that is not the rim: the recessed flat
-    // round a tilted seat is an upside-down pocket whose highest point traps air (issue 18, item 3)
-    let grow_p = |q: P3| [center[0] + k * (q[0] - center[0]), center[1] + k * (q[1] - center[1]), center[2] + k * (q[2] - center[2])];
-    let pockets: Vec<P3> = flat_pocket_tops(p, &l).into_iter().map(grow_p).collect();
-    // each pocket gets a vent straight up from its top, unless that would cross the cavity again or
-    // cut a second hole (into the ridge between two flats, say): such a pocket is reported
-    let flange = Solid::cuboid([x_lo_k, -half_y, ze], [x_hi, half_y, z_top]).difference(&Solid::union_all(&openings_cut).expect("sprue"));
-    let mut core_parts = vec![flange, plug_k];
-    core_parts.extend(pins.iter().cloned());
-    let mut core = Solid::union_all(&core_parts).expect("core");
+    openings_cut
+}
+
+/// Pocket-vent stage: each ceiling pocket (its top, mold frame, grown) gets a vent straight up
+/// through the core, unless that would cross the cavity again or cut a second hole (into the
+/// ridge between two flats, say): such a pocket is reported. Returns the core and the pockets
+/// vented and not.
+fn vent_pockets(mut core: Solid, cavity: &Solid, pockets: &[P3], m: &Mold, ze: f64, z_top: f64) -> (Solid, Vec<P3>, Vec<P3>) {
+    let tol = m.chordal_tolerance_mm;
+    let rv = m.vent_diameter_mm / 2.0;
     let mut vented = Vec::new();
     let mut unvented = Vec::new();
-    for q in &pockets {
+    for q in pockets {
         // only a vent at the very top lets the pocket's air out (one further in starts below it)
         let clear = [[0.0, 0.0], [rv, 0.0], [-rv, 0.0], [0.0, rv], [0.0, -rv]]
             .iter()
@@ -277,39 +390,7 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
             _ => unvented.push(*q),
         }
     }
-    let pockets = vented;
-    // the shell's hollow: the cup carried on 1 mm above the parting plane, so the shell's top face
-    // is cut through, not left coplanar with the cup's rim (which can leave a film over the rim)
-    let mut shell_cut = vec![outer.intersection(&region(1.0, 0.0)).scale_about(k, center)];
-    shell_cut.extend(holes.iter().cloned());
-    let shell = Solid::cuboid([x_lo_k, -half_y, z_lo], [x_hi, half_y, ze]).difference(&Solid::union_all(&shell_cut).expect("cup"));
-    core.ok(&format!("{name}-core"))?;
-    shell.ok(&format!("{name}-shell"))?;
-    let cover = if l.frame.alpha == 0.0 {
-        cover
-    } else {
-        let (a, b, c, o) = l.frame.to_design_columns();
-        cover.place(a, b, c, o)
-    };
-    let a = Assembled {
-        core,
-        shell,
-        cavity,
-        cover,
-        core_surface: surface_d,
-        k,
-        scale_center: center,
-        z_parting: ze,
-        z_top,
-        sprue: (sprue_xy, rs),
-        vents: vent_xy.iter().map(|v| Exit { xy: *v, r: rv, from_z: ze }).chain(pockets.iter().map(|q| Exit { xy: [q[0], q[1]], r: rv, from_z: q[2] })).collect(),
-        key_holes,
-        unvented_pockets: unvented,
-        pins,
-        holes,
-        bounds: ([x_lo_k, -half_y, z_lo], [x_hi, half_y, z_top]),
-    };
-    Ok((l, a))
+    (core, vented, unvented)
 }
 
 /// The highest point, in the pour orientation (+z of the mold frame), of every tilted recessed flat
@@ -374,6 +455,9 @@ fn cavities_fit(a: &Assembled, pitch: f64) -> (usize, impl Fn(usize) -> f64) {
 /// Adjacent cavities' flanges overlap by this (mm), so the pieces unite into one body each.
 pub const CAVITY_OVERLAP_MM: f64 = 1.0;
 
+/// Builds a conforming mold file: assembles and checks the mold, then lays out the printed pieces
+/// (as many cavities as asked, side by side), the cast cover, the assembly view, the manifest
+/// entry and the summary's lines.
 pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let name = p.name.as_str();
     let (l, a) = assemble(p)?;
@@ -412,7 +496,32 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let (shell_print, core_print) = (side_by_side(&shell_print), side_by_side(&core_print));
     let cover_name = p.cover_name();
     let mat = material(p, a.cover.volume());
-    let piece = |solid: Solid, suffix: &str, genus: i32, to_assembled: serde_json::Value| Part {
+    // to_assembled: rows of a 3×4 matrix [R | t] mapping the print pose back to the assembly
+    let core = mold_piece(p, core_print, "core", (n * (1 + a.vents.len())) as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
+    let shell = mold_piece(p, shell_print, "shell", 0, json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]]));
+    let cover = cover_part(p, &l, &a, cover_print);
+    let exploded = a.core.translate([0.0, 0.0, 25.0]);
+    let assembly = Assembly {
+        name: format!("{name}-assembly"),
+        parts: vec![
+            AssemblyObject::part(format!("{name}-shell"), a.shell.to_mesh()),
+            AssemblyObject::reference(format!("{cover_name} cavity (reference)"), a.cavity.to_mesh()),
+            AssemblyObject::reference(format!("{name}-core (reference, lifted 25 mm)"), exploded.to_mesh()),
+        ],
+    };
+    let mut manifest = Map::new();
+    let over_domes = measured["cover_over_sensing_area_mm"].clone();
+    let entry = manifest_entry(p, &l, &a, measured, [&core.name, &shell.name], &mat, pitch);
+    manifest.insert(name.to_string(), serde_json::Value::Object(entry));
+    let notes = summary_notes(p, &a, &mat, fits, &over_domes);
+    Ok(MoldBuild { parts: vec![core, shell, cover], assemblies: vec![assembly], violations, manifest, notes })
+}
+
+/// A printed piece of the mold (`suffix`: core or shell) in its print pose; `to_assembled` maps
+/// that pose back to the assembly.
+fn mold_piece(p: &MoldParams, solid: Solid, suffix: &str, genus: i32, to_assembled: serde_json::Value) -> Part {
+    let name = p.name.as_str();
+    Part {
         name: format!("{name}-{suffix}"),
         mesh: solid.to_mesh(),
         solid,
@@ -430,10 +539,11 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
             "chordal_tolerance_mm": p.mold.chordal_tolerance_mm,
         }),
         extra: Default::default(),
-    };
-    // to_assembled: rows of a 3×4 matrix [R | t] mapping the print pose back to the assembly
-    let core = piece(core_print, "core", (n * (1 + a.vents.len())) as i32, json!([[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]]));
-    let shell = piece(shell_print, "shell", 0, json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]]));
+    }
+}
+
+/// The cast cover as a part, in the fingertip's print frame (`cover_print`), with its domes.
+fn cover_part(p: &MoldParams, l: &Layout, a: &Assembled, cover_print: Solid) -> Part {
     let domes: Vec<serde_json::Value> = l
         .domes
         .iter()
@@ -449,8 +559,8 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
             })
         })
         .collect();
-    let cover = Part {
-        name: cover_name.clone(),
+    Part {
+        name: p.cover_name(),
         mesh: cover_print.to_mesh(),
         solid: cover_print,
         expected_genus: 0,
@@ -461,7 +571,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         write_3mf: false,
         features: json!({
             "kind": "cover",
-            "mold": name,
+            "mold": p.name,
             "fingertip": p.fingertip.name,
             "frame": "the fingertip's print frame: the cover sits on fingertip STL as exported",
             "thickness_mm": p.cover.thickness_mm,
@@ -469,22 +579,19 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
             "shrinkage_scale": a.k,
         }),
         extra: Default::default(),
-    };
-    let exploded = a.core.translate([0.0, 0.0, 25.0]);
-    let assembly = Assembly {
-        name: format!("{name}-assembly"),
-        parts: vec![
-            AssemblyObject::part(format!("{name}-shell"), a.shell.to_mesh()),
-            AssemblyObject::reference(format!("{cover_name} cavity (reference)"), a.cavity.to_mesh()),
-            AssemblyObject::reference(format!("{name}-core (reference, lifted 25 mm)"), exploded.to_mesh()),
-        ],
-    };
-    let mut manifest = Map::new();
+    }
+}
+
+/// The mold's `molds` manifest entry: what it is made of, the checks' measurements, and what an
+/// independent check needs to reassemble it from the written files.
+fn manifest_entry(p: &MoldParams, l: &Layout, a: &Assembled, measured: serde_json::Value, pieces: [&str; 2], mat: &serde_json::Value, pitch: f64) -> Map<String, serde_json::Value> {
+    let name = p.name.as_str();
+    let n = p.mold.cavities;
     let mut entry = Map::new();
     entry.insert("style".into(), json!("conforming"));
     entry.insert("fingertip".into(), json!(p.fingertip_file));
-    entry.insert("pieces".into(), json!([core.name, shell.name]));
-    entry.insert("cover".into(), json!(cover_name));
+    entry.insert("pieces".into(), json!(pieces));
+    entry.insert("cover".into(), json!(p.cover_name()));
     entry.insert("material".into(), mat.clone());
     entry.insert(
         "demolding".into(),
@@ -494,37 +601,10 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         )),
     );
     entry.insert("parting_plane_z_mm".into(), json!(a.z_parting));
-    let over_domes = measured["cover_over_sensing_area_mm"].clone();
     entry.insert("checks".into(), measured);
     entry.insert("assembly".into(), json!(format!("{name}-assembly.3mf")));
-    // the fingertip's print frame (y, z, x of the design frame) → design → the mold's frame
-    let dm = l.frame.rows_to_mold();
-    let p2d = [[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]];
-    let mut print_to_mold = [[0.0; 4]; 3];
-    for r in 0..3 {
-        for col in 0..4 {
-            let mut v: f64 = (0..3).map(|k| dm[r][k] * p2d[k][col]).sum();
-            if col == 3 {
-                v += dm[r][3];
-            }
-            print_to_mold[r][col] = v;
-        }
-    }
-    let fm = |q: P3| l.frame.to_mold(q);
-    let fd = |n: P3| l.frame.dir_to_mold(n);
     // what an independent check needs to reassemble the mold from the written files
-    entry.insert(
-        "frames".into(),
-        json!({
-            "core_print_to_assembled": [[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]],
-            "shell_print_to_assembled": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]],
-            "cover_print_to_assembled": print_to_mold,
-            "fingertip_print_to_assembled": print_to_mold,
-            "design_to_assembled": l.frame.rows_to_mold(),
-            "cavity_scale": a.k,
-            "cavity_scale_center": a.scale_center,
-        }),
-    );
+    entry.insert("frames".into(), frames(l, a));
     entry.insert("fingertip_part".into(), json!(p.fingertip.name));
     entry.insert("parting_z_mm".into(), json!(a.z_parting));
     entry.insert("flange_top_z_mm".into(), json!(a.z_top));
@@ -543,6 +623,8 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     );
     entry.insert("pour_up".into(), json!([0.0, 0.0, 1.0]));
     entry.insert("unvented_pockets".into(), json!(a.unvented_pockets));
+    let fm = |q: P3| l.frame.to_mold(q);
+    let fd = |n: P3| l.frame.dir_to_mold(n);
     entry.insert(
         "domes_assembled".into(),
         json!(l
@@ -574,9 +656,43 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     entry.insert("cavities".into(), json!(n));
     entry.insert("cavity_pitch_mm".into(), json!(if n > 1 { pitch } else { 0.0 }));
     entry.insert("chordal_tolerance_mm".into(), json!(p.mold.chordal_tolerance_mm));
-    manifest.insert(name.to_string(), serde_json::Value::Object(entry));
-    let mut notes = notes(name, &mat);
-    notes.push(pour_note(name, n, fits, &mat));
+    entry
+}
+
+/// The manifest's `frames`: each written piece's print pose, and the design frame, mapped to the
+/// assembled mold.
+fn frames(l: &Layout, a: &Assembled) -> serde_json::Value {
+    let z_lo = a.bounds.0[2];
+    // the fingertip's print frame (y, z, x of the design frame) → design → the mold's frame
+    let dm = l.frame.rows_to_mold();
+    let p2d = [[0.0, 0.0, 1.0, 0.0], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]];
+    let mut print_to_mold = [[0.0; 4]; 3];
+    for r in 0..3 {
+        for col in 0..4 {
+            let mut v: f64 = (0..3).map(|k| dm[r][k] * p2d[k][col]).sum();
+            if col == 3 {
+                v += dm[r][3];
+            }
+            print_to_mold[r][col] = v;
+        }
+    }
+    json!({
+        "core_print_to_assembled": [[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, -1, a.z_top]],
+        "shell_print_to_assembled": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, z_lo]],
+        "cover_print_to_assembled": print_to_mold,
+        "fingertip_print_to_assembled": print_to_mold,
+        "design_to_assembled": l.frame.rows_to_mold(),
+        "cavity_scale": a.k,
+        "cavity_scale_center": a.scale_center,
+    })
+}
+
+/// The summary's lines: material, pours, the cover over each sensing area (`over_domes`, from the
+/// checks) and a warning for each pocket no vent reaches.
+fn summary_notes(p: &MoldParams, a: &Assembled, mat: &serde_json::Value, fits: usize, over_domes: &serde_json::Value) -> Vec<String> {
+    let name = p.name.as_str();
+    let mut notes = notes(name, mat);
+    notes.push(pour_note(name, p.mold.cavities, fits, mat));
     for (i, c) in over_domes.as_array().into_iter().flatten().enumerate() {
         let f = |k: &str| c[k].as_f64().unwrap_or(f64::NAN);
         let profile = match p.cover.profile {
@@ -597,5 +713,5 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     for q in &a.unvented_pockets {
         notes.push(format!("{name}: WARNING: the cavity's ceiling has a pocket at ({:.2}, {:.2}, {:.2}) (mold frame) that no straight vent reaches: it will trap air beside the dome; tilt the seat or the demolding direction", q[0], q[1], q[2]));
     }
-    Ok(MoldBuild { parts: vec![core, shell, cover], assemblies: vec![assembly], violations, manifest, notes })
+    notes
 }

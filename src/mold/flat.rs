@@ -51,6 +51,8 @@ pub fn developed(l: &Layout) -> (f64, f64, Vec<[f64; 2]>) {
     (length, width, domes)
 }
 
+/// Builds a flat mold file: the cast sheet, the tray that casts it, their checks, the manifest
+/// entry (with the developed cover) and the summary's lines.
 pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     let name = p.name.as_str();
     let l = layout(p).map_err(|e| Error::geometry(name, e))?;
@@ -81,30 +83,7 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
         .union(&bosses_all.scale_about(k, [0.0; 3]).intersection(&pocket));
     tray.ok(name)?;
 
-    let mut violations = Vec::new();
-    let mut dome_overlap = Vec::new();
-    for (i, (d, uv)) in l.domes.iter().zip(&at).enumerate() {
-        let dome = Solid::cylinder([uv[0], uv[1], 0.0], [0.0, 0.0, 1.0], d.depth, d.dome_r, d.dome_r, segments(d.dome_r, tol));
-        let ov = dome.intersection(&sheet).volume();
-        dome_overlap.push(ov);
-        if ov > 1e-6 {
-            violations.push(Violation {
-                part: name.to_string(),
-                rule: "each sensor dome must fit its pattern with clearance ≥ 0",
-                measured: format!("sensor[{i}]: overlap {ov:.5} mm³"),
-            });
-        }
-    }
-    let tray_cavity = tray.intersection(&pocket).volume();
-    let cast = pocket.volume() - tray_cavity;
-    let k3 = k.powi(3);
-    if ((cast / k3 - sheet.volume()) / sheet.volume()).abs() > 1e-6 {
-        violations.push(Violation {
-            part: name.to_string(),
-            rule: "the tray's cavity volume must equal the sheet's (times the shrinkage allowance)",
-            measured: format!("{cast:.3} / {k3:.5} vs {:.3} mm³", sheet.volume()),
-        });
-    }
+    let (violations, dome_overlap, cast) = tray_checks(p, &l, &at, &sheet, &tray, &pocket);
     // what cutting the sheet out and bending it round the pad costs: outer-fibre strain
     let s = &l.shape;
     let r_min = s.pad_bend_radius();
@@ -164,4 +143,38 @@ pub fn build(p: &MoldParams) -> Result<MoldBuild> {
     lines.push(format!("{name}: the tray casts one sheet per pour: print as many trays as the batch casts covers"));
     lines.push(format!("{name}: flat sheet {:.1} × {:.1} mm (+{mg} mm margin to cut away); bending it round the pad strains its outer face by {:.0} %", len, wid, strain * 100.0));
     Ok(MoldBuild { parts: vec![tray_part, cover], assemblies: vec![], violations, manifest, notes: lines })
+}
+
+/// The flat mold's checks: each dome fits its pattern in the sheet, and the tray's cavity
+/// (`pocket` less the `tray`) holds the sheet grown by the shrinkage. Returns the violations, each
+/// dome's overlap with the sheet (mm³) and the cast volume (mm³).
+fn tray_checks(p: &MoldParams, l: &Layout, at: &[[f64; 2]], sheet: &Solid, tray: &Solid, pocket: &Solid) -> (Vec<Violation>, Vec<f64>, f64) {
+    let name = p.name.as_str();
+    let tol = p.mold.chordal_tolerance_mm;
+    let k = 1.0 + p.cover.shrinkage_percent / 100.0;
+    let mut violations = Vec::new();
+    let mut dome_overlap = Vec::new();
+    for (i, (d, uv)) in l.domes.iter().zip(at).enumerate() {
+        let dome = Solid::cylinder([uv[0], uv[1], 0.0], [0.0, 0.0, 1.0], d.depth, d.dome_r, d.dome_r, segments(d.dome_r, tol));
+        let ov = dome.intersection(sheet).volume();
+        dome_overlap.push(ov);
+        if ov > 1e-6 {
+            violations.push(Violation {
+                part: name.to_string(),
+                rule: "each sensor dome must fit its pattern with clearance ≥ 0",
+                measured: format!("sensor[{i}]: overlap {ov:.5} mm³"),
+            });
+        }
+    }
+    let tray_cavity = tray.intersection(pocket).volume();
+    let cast = pocket.volume() - tray_cavity;
+    let k3 = k.powi(3);
+    if ((cast / k3 - sheet.volume()) / sheet.volume()).abs() > 1e-6 {
+        violations.push(Violation {
+            part: name.to_string(),
+            rule: "the tray's cavity volume must equal the sheet's (times the shrinkage allowance)",
+            measured: format!("{cast:.3} / {k3:.5} vs {:.3} mm³", sheet.volume()),
+        });
+    }
+    (violations, dome_overlap, cast)
 }

@@ -254,17 +254,41 @@ pub fn in_rim(l: &Layout, t: f64, xy: [f64; 2]) -> bool {
     xy[0] > l.x_start_m && !l.shape.inside(p) && l.shape.offset_distance(p, 0.0) < t
 }
 
+/// A problem a rule found: (path, value, message).
+type Problem = (String, String, String);
+
 /// Rules that need the fingertip's shape. Returns (path, value, message) for each problem.
 pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
-    let mut out = Vec::new();
-    let mut push = |path: &str, value: String, msg: String| out.push((path.to_string(), value, msg));
+    let mut out: Vec<Problem> = Vec::new();
     let l = match layout(p) {
         Ok(l) => l,
         Err(e) => {
-            push("fingertip", p.fingertip_file.clone(), format!("the fingertip's seats cannot be located: {e}"));
+            out.push(("fingertip".to_string(), p.fingertip_file.clone(), format!("the fingertip's seats cannot be located: {e}")));
             return out;
         }
     };
+    cover_rules(p, &l, &mut out);
+    let m = &p.mold;
+    if p.style == Style::Flat {
+        if m.cavities > 1 {
+            out.push(("mold.cavities".to_string(), m.cavities.to_string(), "the flat style casts one sheet in a tray: remove `cavities` or use style = \"conforming\"".into()));
+        }
+        return out;
+    }
+    if !parting_in_pad_rule(p, &l, &mut out) {
+        return out;
+    }
+    head_recess_rules(p, &l, &mut out);
+    cover_end_and_edge_rules(p, &l, &mut out);
+    seat_flat_rules(p, &l, &mut out);
+    key_and_opening_rules(p, &l, &mut out);
+    out
+}
+
+/// Cover stage (both styles): the cover is printable detail thick, and each dome cavity fits its
+/// flat seat, leaves skin over the dome and is wide enough at its drafted top.
+fn cover_rules(p: &MoldParams, l: &Layout, out: &mut Vec<Problem>) {
+    let mut push = |path: &str, value: String, msg: String| out.push((path.to_string(), value, msg));
     let (c, m) = (&p.cover, &p.mold);
     let t = c.thickness_mm;
     if t < m.min_detail_mm {
@@ -315,32 +339,38 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
             );
         }
     }
-    if p.style == Style::Flat {
-        if m.cavities > 1 {
-            push("mold.cavities", m.cavities.to_string(), "the flat style casts one sheet in a tray: remove `cavities` or use style = \"conforming\"".into());
-        }
-        return out;
-    }
-    let s = &l.shape;
-    let pad = s.pad_depth;
+}
+
+/// Parting stage: the parting plane lies inside the pad. False when it does not (the later
+/// conforming rules then do not apply).
+fn parting_in_pad_rule(p: &MoldParams, l: &Layout, out: &mut Vec<Problem>) -> bool {
+    let m = &p.mold;
+    let t = p.cover.thickness_mm;
+    let pad = l.shape.pad_depth;
     if m.parting_below_midplane_mm >= pad - t.max(m.min_detail_mm) {
-        push(
-            "mold.parting_below_midplane_mm",
+        out.push((
+            "mold.parting_below_midplane_mm".to_string(),
             m.parting_below_midplane_mm.to_string(),
             format!("the parting plane must lie inside the pad (depth {pad:.2} mm): use less than {:.2} mm", pad - t.max(m.min_detail_mm)),
-        );
-        return out;
+        ));
+        return false;
     }
-    // the cover must leave the screws' head recesses free: a cover edge across a recess keeps the
-    // head from seating (and tears when the screw goes in)
+    true
+}
+
+/// Screw stage: the cover must leave the screws' head recesses free: a cover edge across a recess
+/// keeps the head from seating (and tears when the screw goes in).
+fn head_recess_rules(p: &MoldParams, l: &Layout, out: &mut Vec<Problem>) {
+    let (c, m) = (&p.cover, &p.mold);
+    let s = &l.shape;
     let mount = &p.fingertip.mount;
     let r_recess = if mount.head == crate::params::fingertip::Head::None { mount.hole_diameter_mm / 2.0 } else { mount.head_diameter_mm / 2.0 };
     for (i, h) in mount.holes.iter().enumerate() {
         let (x, z) = (h[0], h[1]);
         let (x_lo, z_lo) = (x + r_recess, z - r_recess);
         if x_lo > l.x_start && z_lo < -m.parting_below_midplane_mm {
-            push(
-                "cover.from_tip_mm",
+            out.push((
+                "cover.from_tip_mm".to_string(),
                 c.from_tip_mm.to_string(),
                 format!(
                     "the cover (from x = {:.2} mm, up to {:.2} mm below the mid-plane) runs over the head recess of the fingertip's hole {i} (Ø{:.2} mm at x = {x}, z = {z}, down to z = {z_lo:.2}): shorten the cover to at most {:.2} mm, raise the hole to z ≥ {:.2} in the fingertip file, or lower mold.parting_below_midplane_mm to ≥ {:.2}",
@@ -351,9 +381,18 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
                     r_recess - m.parting_below_midplane_mm,
                     r_recess - z,
                 ),
-            );
+            ));
         }
     }
+}
+
+/// Cover-edge stage: the cover ends far enough from the mount face for the plug, and the pad
+/// meets the parting plane steeply enough for the draft and the tessellation.
+fn cover_end_and_edge_rules(p: &MoldParams, l: &Layout, out: &mut Vec<Problem>) {
+    let mut push = |path: &str, value: String, msg: String| out.push((path.to_string(), value, msg));
+    let (c, m) = (&p.cover, &p.mold);
+    let t = c.thickness_mm;
+    let s = &l.shape;
     if l.x_start < m.wall_thickness_mm + 1.0 {
         push(
             "cover.from_tip_mm",
@@ -381,9 +420,14 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
         None => push("mold.parting_below_midplane_mm", m.parting_below_midplane_mm.to_string(), "the pad does not reach below the parting plane".into()),
         _ => {}
     }
-    // every seat's flat region, with the 45° spot face round it, must lie inside the cover, two
-    // nozzle widths clear of its end: the end wall would otherwise cut the spot face into a knife
-    // edge on the core's plug (or split a sliver off it)
+}
+
+/// Seat stage: every seat's flat region, with the 45° spot face round it, must lie inside the
+/// cover, two nozzle widths clear of its end: the end wall would otherwise cut the spot face into
+/// a knife edge on the core's plug (or split a sliver off it).
+fn seat_flat_rules(p: &MoldParams, l: &Layout, out: &mut Vec<Problem>) {
+    let mut push = |path: &str, value: String, msg: String| out.push((path.to_string(), value, msg));
+    let (c, m) = (&p.cover, &p.mold);
     let clear = crate::checks::min_feature::MIN_FEATURE_MM;
     for (i, (st, sp)) in l.seats.iter().zip(&p.fingertip.sensors).enumerate() {
         let (u, v, _) = mesh::frame(st.normal);
@@ -415,6 +459,15 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
             );
         }
     }
+}
+
+/// Keys and openings stage: the key holes stop a wall short of the shell's floor, the vents fit
+/// the cavity's rim, and a sprue the file places meets the rim.
+fn key_and_opening_rules(p: &MoldParams, l: &Layout, out: &mut Vec<Problem>) {
+    let mut push = |path: &str, value: String, msg: String| out.push((path.to_string(), value, msg));
+    let m = &p.mold;
+    let t = p.cover.thickness_mm;
+    let pad = l.shape.pad_depth;
     // keys: the holes must stop a wall short of the shell's floor
     let floor_depth = pad + t - m.parting_below_midplane_mm + m.wall_thickness_mm;
     if m.key_height_mm + m.key_clearance_mm + m.min_wall_mm > floor_depth {
@@ -434,7 +487,7 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
         push("mold.vent_diameter_mm", m.vent_diameter_mm.to_string(), format!("wider than the cavity's rim ({t} mm less 0.1): the vent would not open into the cavity alone"));
     }
     if let Some(xy) = m.sprue_xy_mm {
-        if !in_rim(&l, t, xy) {
+        if !in_rim(l, t, xy) {
             push(
                 "mold.sprue_xy_mm",
                 format!("[{}, {}]", xy[0], xy[1]),
@@ -442,7 +495,6 @@ pub fn validate(p: &MoldParams) -> Vec<(String, String, String)> {
             );
         }
     }
-    out
 }
 
 /// PDMS material estimate for a cover volume (mm³).

@@ -152,10 +152,87 @@ impl RigParams {
 /// Standard gravity (m/s²): grams of weight to newtons.
 const GRAVITY_M_S2: f64 = 9.80665;
 
+/// The rig's fields (base, plunger, print), each read and range-checked on its own: None where
+/// missing or refused.
+struct Fields {
+    bw: Option<f64>,
+    bh: Option<f64>,
+    seat_c: Option<f64>,
+    slot_c: Option<f64>,
+    sleeve_wall: Option<f64>,
+    face: Option<f64>,
+    ftop: Option<f64>,
+    fh: Option<f64>,
+    stem_d: Option<f64>,
+    stem_l: Option<f64>,
+    plate_d: Option<f64>,
+    plate_t: Option<f64>,
+    weight_d: Option<f64>,
+    clear: Option<f64>,
+    tilt: Option<f64>,
+    pitch: Option<f64>,
+    line_w: Option<f64>,
+    sdepth: Option<f64>,
+    print: Option<Print>,
+    infill: Option<f64>,
+    layer: Option<f64>,
+}
+
+/// Checks a rig file's fields one by one, then their relations (every problem goes into `c`, each
+/// with its path); the parameters when every field could be read.
 fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBase, p: &RawPlunger, pr: &RawRigPrint) -> Option<RigParams> {
-    // the sensor is the board file's
-    let (disc, board, dome_d, dome_h, tail_w, tail_l) =
-        (Some(s.board_diameter_mm), Some(s.board_thickness_mm), Some(s.dome_diameter_mm), Some(s.dome_height_mm), Some(s.tail_width_mm), Some(s.tail_length_mm));
+    let f = read_fields(c, s, b, p, pr);
+    whole_layer_rule(c, &f);
+    let max_load = c.or_within(p.max_load_g, 1000.0, "plunger.max_load_g", 0.0, 1.0e5);
+    let margin = c.or_within(p.stop_margin_mm, 0.2, "plunger.stop_margin_mm", 0.0, 10.0);
+    // the stop must not carry load: the plate lands on the sleeve only after the dome has taken the
+    // top load (weights plus the plunger itself)
+    let top = top_load(&f, max_load, s.dome_stiffness_n_per_mm);
+    let stop = stop_gap(c, p.stop_gap_mm, top, margin);
+
+    // cross-field rules: every problem is reported, each with its path
+    plunger_rules(c, s, &f, stop, p.stop_gap_mm.is_some());
+    base_rules(c, s, &f);
+    scale_rules(c, &f);
+    Some(RigParams {
+        name,
+        // the sensor is the board file's
+        sensor: RigSensor {
+            disc_diameter_mm: s.board_diameter_mm,
+            board_thickness_mm: s.board_thickness_mm,
+            dome_diameter_mm: s.dome_diameter_mm,
+            dome_height_mm: s.dome_height_mm,
+            tail_width_mm: s.tail_width_mm,
+            tail_length_mm: s.tail_length_mm,
+        },
+        base: Base { width_mm: f.bw?, height_mm: f.bh?, seat_clearance_mm: f.seat_c?, tail_slot_clearance_mm: f.slot_c?, sleeve_wall_mm: f.sleeve_wall? },
+        plunger: Plunger {
+            face_diameter_mm: f.face?,
+            frustum_top_diameter_mm: f.ftop?,
+            frustum_height_mm: f.fh?,
+            stem_diameter_mm: f.stem_d?,
+            stem_length_mm: f.stem_l?,
+            plate_diameter_mm: f.plate_d?,
+            plate_thickness_mm: f.plate_t?,
+            weight_diameter_mm: f.weight_d?,
+            clearance_mm: f.clear?,
+            stop_gap_mm: stop?,
+            max_load_g: max_load?,
+            top_load_n: top?.0,
+            dome_compression_mm: top?.1,
+            max_tilt_deg: f.tilt?,
+            scale_pitch_mm: f.pitch?,
+            scale_line_width_mm: f.line_w?,
+            scale_depth_mm: f.sdepth?,
+        },
+        print: f.print?,
+        infill: f.infill?,
+        layer_height_mm: f.layer?,
+    })
+}
+
+/// Field stage: reads the base, plunger and print fields one by one, each with its own range.
+fn read_fields(c: &mut Collector, s: &super::board::Board, b: &RawBase, p: &RawPlunger, pr: &RawRigPrint) -> Fields {
     let bw = c.positive(b.width_mm, "base.width_mm", "50.0");
     let bh = c.positive(b.height_mm, "base.height_mm", "8.0");
     let seat_c = c.or_within(b.seat_clearance_mm, 0.2, "base.seat_clearance_mm", 0.0, 2.0);
@@ -178,7 +255,13 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
     let print = print_params(c, &RawPrint { density_g_cm3: pr.density_g_cm3, min_wall_mm: pr.min_wall_mm, chordal_tolerance_mm: pr.chordal_tolerance_mm }, 1.2);
     let infill = c.or_within(pr.infill, 1.0, "print.infill", 0.05, 1.0);
     let layer = c.or_within(pr.layer_height_mm, 0.2, "print.layer_height_mm", 0.04, 0.6);
-    // heights that set a recess or an engraving print as whole layers, or the slicer rounds them
+    Fields { bw, bh, seat_c, slot_c, sleeve_wall, face, ftop, fh, stem_d, stem_l, plate_d, plate_t, weight_d, clear, tilt, pitch, line_w, sdepth, print, infill, layer }
+}
+
+/// Layer stage: heights that set a recess or an engraving print as whole layers, or the slicer
+/// rounds them.
+fn whole_layer_rule(c: &mut Collector, f: &Fields) {
+    let (bh, sdepth, layer) = (f.bh, f.sdepth, f.layer);
     if let Some(lh) = layer {
         for (path, v) in [("base.height_mm", bh), ("plunger.scale_depth_mm", sdepth)] {
             if let Some(v) = v {
@@ -190,13 +273,13 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
             }
         }
     }
-    let stiffness = Some(s.dome_stiffness_n_per_mm);
-    let max_load = c.or_within(p.max_load_g, 1000.0, "plunger.max_load_g", 0.0, 1.0e5);
-    let margin = c.or_within(p.stop_margin_mm, 0.2, "plunger.stop_margin_mm", 0.0, 10.0);
-    // the stop must not carry load: the plate lands on the sleeve only after the dome has taken the
-    // top load (weights plus the plunger itself)
-    let top = match (face, ftop, fh, stem_d, stem_l, plate_d, plate_t, &print, infill, max_load, stiffness) {
-        (Some(rf), Some(rt), Some(h), Some(sd), Some(sl), Some(pd), Some(pt), Some(pr), Some(inf), Some(ml), Some(k)) => {
+}
+
+/// The top load (N) on the dome, weights plus the plunger itself (an upper bound: its solid volume
+/// at the print's density and infill), and the dome's compression under it (mm) at stiffness `k`.
+fn top_load(f: &Fields, max_load: Option<f64>, k: f64) -> Option<(f64, f64)> {
+    match (f.face, f.ftop, f.fh, f.stem_d, f.stem_l, f.plate_d, f.plate_t, &f.print, f.infill, max_load) {
+        (Some(rf), Some(rt), Some(h), Some(sd), Some(sl), Some(pd), Some(pt), Some(pr), Some(inf), Some(ml)) => {
             let (rf, rt) = (rf / 2.0, rt / 2.0);
             let pi = std::f64::consts::PI;
             let vol = pi * h / 3.0 * (rf * rf + rf * rt + rt * rt) + pi * (sd / 2.0).powi(2) * sl + pi * (pd / 2.0).powi(2) * pt;
@@ -205,8 +288,13 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
             Some((n, n / k))
         }
         _ => None,
-    };
-    let stop = match (p.stop_gap_mm, top, margin) {
+    }
+}
+
+/// Stop stage: the overtravel stop gap, as given (and then no less than the dome's compression
+/// under the top load) or computed from that compression plus `margin`.
+fn stop_gap(c: &mut Collector, given: Option<f64>, top: Option<(f64, f64)>, margin: Option<f64>) -> Option<f64> {
+    match (given, top, margin) {
         (Some(st), Some((n, comp)), _) => {
             let st = c.positive(Some(st), "plunger.stop_gap_mm", "0.7");
             if let Some(st) = st {
@@ -223,9 +311,15 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
         (Some(st), None, _) => c.positive(Some(st), "plunger.stop_gap_mm", "0.7"),
         (None, Some((_, comp)), Some(m)) => Some(comp + m),
         (None, _, _) => None,
-    };
+    }
+}
 
-    // cross-field rules: every problem is reported, each with its path
+/// Plunger rules: the frustum presses the sensing area only, fits the guide and widens upward;
+/// the plunger slides, carries the weights, clears the seat, stops before the dome is flattened
+/// and is held vertical (`stop_given`: the file gave the stop gap).
+fn plunger_rules(c: &mut Collector, s: &super::board::Board, f: &Fields, stop: Option<f64>, stop_given: bool) {
+    let (disc, dome_d, dome_h) = (Some(s.board_diameter_mm), Some(s.dome_diameter_mm), Some(s.dome_height_mm));
+    let (face, ftop, stem_d, stem_l, plate_d, weight_d, clear, tilt, seat_c) = (f.face, f.ftop, f.stem_d, f.stem_l, f.plate_d, f.weight_d, f.clear, f.tilt, f.seat_c);
     if let (Some(f), Some(d)) = (face, dome_d) {
         if f > d + 1e-9 {
             c.push("plunger.face_diameter_mm", f, format!("the frustum face must not be larger than the dome ({d} mm): its force would bypass the sensing area"));
@@ -267,7 +361,7 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
     }
     if let (Some(st), Some(dh)) = (stop, dome_h) {
         if st >= dh {
-            let why = if p.stop_gap_mm.is_some() {
+            let why = if stop_given {
                 String::new()
             } else {
                 " (computed: the dome's compression under plunger.max_load_g plus stop_margin_mm; the dome is too soft for this load)".to_string()
@@ -287,17 +381,24 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
         }
         let _ = sd;
     }
+}
+
+/// Base rules: the base reaches beyond the guide sleeve, the sleeve and the floor under the seat
+/// keep the minimum wall, and the board's tail reaches the base's edge.
+fn base_rules(c: &mut Collector, s: &super::board::Board, f: &Fields) {
+    let (disc, board, tail_l) = (Some(s.board_diameter_mm), Some(s.board_thickness_mm), Some(s.tail_length_mm));
+    let (bw, bh, stem_d, clear, sleeve_wall, slot_c, layer, print) = (f.bw, f.bh, f.stem_d, f.clear, f.sleeve_wall, f.slot_c, f.layer, &f.print);
     if let (Some(bw), Some(sd), Some(cl), Some(wall)) = (bw, stem_d, clear, sleeve_wall) {
         if bw < sd + 2.0 * cl + 2.0 * wall + 10.0 {
             c.push("base.width_mm", bw, format!("the base must extend at least 5 mm beyond the guide sleeve ({:.1} mm across)", sd + 2.0 * cl + 2.0 * wall));
         }
     }
-    if let (Some(wall), Some(pr)) = (sleeve_wall, &print) {
+    if let (Some(wall), Some(pr)) = (sleeve_wall, print) {
         if wall < pr.min_wall_mm {
             c.push("base.sleeve_wall_mm", wall, format!("thinner than the minimum wall {} mm", pr.min_wall_mm));
         }
     }
-    if let (Some(bh), Some(board), Some(pr), Some(sc), Some(lh)) = (bh, board, &print, slot_c, layer) {
+    if let (Some(bh), Some(board), Some(pr), Some(sc), Some(lh)) = (bh, board, print, slot_c, layer) {
         // the tail slot is the deepest cut: board + its clearance, in whole layers
         if bh - whole_layers(board + sc, lh) < pr.min_wall_mm {
             c.push("base.height_mm", bh, format!("leaves less than the minimum wall {} mm under the seat and the tail slot", pr.min_wall_mm));
@@ -312,7 +413,12 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
             );
         }
     }
-    if let (Some(pitch), Some(lw), Some(sd), Some(pt)) = (pitch, line_w, sdepth, plate_t) {
+}
+
+/// Scale rules: the centring scale's lines are narrower than their pitch, and its engraving no
+/// deeper than half the plate.
+fn scale_rules(c: &mut Collector, f: &Fields) {
+    if let (Some(pitch), Some(lw), Some(sd), Some(pt)) = (f.pitch, f.line_w, f.sdepth, f.plate_t) {
         if lw >= pitch {
             c.push("plunger.scale_line_width_mm", lw, format!("scale lines must be narrower than their pitch {pitch} mm"));
         }
@@ -320,38 +426,4 @@ fn validate(c: &mut Collector, name: String, s: &super::board::Board, b: &RawBas
             c.push("plunger.scale_depth_mm", sd, format!("engraving deeper than half the plate ({pt} mm) weakens it"));
         }
     }
-    Some(RigParams {
-        name,
-        sensor: RigSensor {
-            disc_diameter_mm: disc?,
-            board_thickness_mm: board?,
-            dome_diameter_mm: dome_d?,
-            dome_height_mm: dome_h?,
-            tail_width_mm: tail_w?,
-            tail_length_mm: tail_l?,
-        },
-        base: Base { width_mm: bw?, height_mm: bh?, seat_clearance_mm: seat_c?, tail_slot_clearance_mm: slot_c?, sleeve_wall_mm: sleeve_wall? },
-        plunger: Plunger {
-            face_diameter_mm: face?,
-            frustum_top_diameter_mm: ftop?,
-            frustum_height_mm: fh?,
-            stem_diameter_mm: stem_d?,
-            stem_length_mm: stem_l?,
-            plate_diameter_mm: plate_d?,
-            plate_thickness_mm: plate_t?,
-            weight_diameter_mm: weight_d?,
-            clearance_mm: clear?,
-            stop_gap_mm: stop?,
-            max_load_g: max_load?,
-            top_load_n: top?.0,
-            dome_compression_mm: top?.1,
-            max_tilt_deg: tilt?,
-            scale_pitch_mm: pitch?,
-            scale_line_width_mm: line_w?,
-            scale_depth_mm: sdepth?,
-        },
-        print: print?,
-        infill: infill?,
-        layer_height_mm: layer?,
-    })
 }
