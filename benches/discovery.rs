@@ -288,6 +288,16 @@ fn main() {
                 p.final_rest_s = 30.0
             }),
         ),
+        // top levels that compress (a conductance exponent of 0.85, the top load at 85 % of the
+        // divider's span; not saturation), and saturation as an amplifier's rail before the noise
+        // below the top one or two levels (issue 15, item 4; `rail_case`)
+        (
+            "compressed top levels; saturation as a rail before the noise, below the top 1-2 levels",
+            Box::new(|s, _| {
+                compress(s, 0.85, 0.85);
+                s.effects.saturation_before_noise = true
+            }),
+        ),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {
@@ -312,7 +322,10 @@ fn main() {
             e.set(&mut s, m, topv);
             let mut hit = 0;
             let nv = n;
-            for _ in 0..nv {
+            for case in 0..nv {
+                if e == E::Sat && sv.effects.saturation_before_noise {
+                    s.effects.saturation_v = rail_case(&sv, &pv, case);
+                }
                 if run(&s, &pv, seed).found.iter().any(|x| x == e.name()) {
                     hit += 1;
                 }
@@ -389,4 +402,25 @@ fn trial_nuisances(s: &mut SensorParams) {
     s.nuisance.rest_tau_s = 100.0;
     s.nuisance.noise_ar_rho = 0.95;
     s.nuisance.noise_ar_share = 0.25;
+}
+
+/// The rail of the rail variation's `case`-th saturation case: below the top two levels (a quarter
+/// of the way down from the fourth level toward the third), or between the fourth level and the top
+/// one (a quarter, half and three quarters of the way up), in turn.
+fn rail_case(s: &SensorParams, p: &ProtocolParams, case: u64) -> f64 {
+    let level = |k: usize| s.v_eq((p.weights_g.iter().take(k).sum::<f64>() + 20.0) / 1000.0 * 9.80665);
+    let n = p.weights_g.len();
+    let (l3, l4, l5) = (level(n - 2), level(n - 1), level(n));
+    match case % 4 {
+        0 => l4 - 0.25 * (l4 - l3),
+        k => l4 + 0.25 * k as f64 * (l5 - l4),
+    }
+}
+
+/// A sensor whose top levels compress: conductance exponent `n`, and the top load of the 0–1000 g
+/// protocol (1020 g with the preload) at `share` of the divider's span.
+fn compress(s: &mut SensorParams, n: f64, share: f64) {
+    s.exponent = n;
+    let x = share / (1.0 - share);
+    s.g_ref_s = x / (s.circuit.r_m_ohm * (1.020 * 9.80665f64).powf(n));
 }

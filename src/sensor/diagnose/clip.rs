@@ -7,13 +7,18 @@ use super::*;
 pub(super) struct ClipSteps {
     pub(super) into: Vec<(usize, usize)>,
     pub(super) from: Vec<(usize, usize)>,
-    pub(super) units: Vec<(usize, usize)>,
+    /// The units where a clip's evidence lies, in groups tested each on its own: the rising steps
+    /// (a piled clip); a rail's rising steps from below it and its falling steps that leave it.
+    pub(super) units: Vec<Vec<(usize, usize)>>,
+    /// An amplifier's rail before the noise ([`rail_level`]): the steps falling from it leave it
+    /// late, up to seconds after their landing; their onsets are fitted where they leave it.
+    pub(super) rail: bool,
 }
 
 /// The steps a clip shapes, per (trial, segment): those rising into it ("into") and those
 /// starting from a clipped load ("from"), and the (trial, segment) units where a clip's evidence
 /// lies (units count segments from 1).
-pub(super) fn clipped_segments(trials: &[Trial], clip: f64) -> ClipSteps {
+pub(super) fn clipped_segments(trials: &[Trial], clip: f64, rail: bool) -> ClipSteps {
     let (mut into, mut from) = (Vec::new(), Vec::new());
     for (k, tr) in trials.iter().enumerate() {
         let at = 0.25 * tr.sigma.max(1e-12);
@@ -26,13 +31,38 @@ pub(super) fn clipped_segments(trials: &[Trial], clip: f64) -> ClipSteps {
             } else if reaches {
                 into.push((k, s));
             }
-            prev_clipped = reaches;
+            // the next step falls from the clip only when this hold ends at it (a step falling from
+            // the clip touches it at its start, and its hold is below)
+            prev_clipped = reaches && ends_at(tr, (sg.t0, end), clip);
         }
     }
-    // the evidence: the rising steps, whose shape the clip changes (the falling steps' onsets are
-    // moved so the clip leaves them as they were)
-    let units = into.iter().map(|&(k, s)| (k, s + 1)).collect();
-    ClipSteps { into, from, units }
+    // the evidence: the rising steps, whose shape the clip changes (a piled clip's falling steps'
+    // onsets are moved so the clip leaves them as they were); a rail's also its falling steps, which
+    // leave it late — two kinds of evidence (the rise's corner, the late fall), each tested on its
+    // own; steps that start and end at the rail have no shape to change
+    let unit = |&(k, s): &(usize, usize)| (k, s + 1);
+    let units = if rail {
+        let rises = into.iter().filter(|&&(k, s)| !starts_at(&trials[k], s, clip)).map(unit).collect();
+        let falls = from.iter().filter(|&&(k, s)| !ends_at(&trials[k], (trials[k].segs[s].t0, trials[k].segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY)), clip)).map(unit).collect();
+        vec![rises, falls]
+    } else {
+        vec![into.iter().map(unit).collect()]
+    };
+    ClipSteps { into, from, units, rail }
+}
+
+/// Whether step `s` starts at the clip: the hold before it ends there.
+fn starts_at(tr: &Trial, s: usize, clip: f64) -> bool {
+    s > 0 && ends_at(tr, (tr.segs[s - 1].t0, tr.segs[s].t0), clip)
+}
+
+/// Whether a hold (from `t0_s` to `end_s`) ends at the clip: the median of its last quarter is
+/// within the samples' margin of it (a plateau piled at the clip, or a rail ± the noise).
+fn ends_at(tr: &Trial, (t0_s, end_s): (f64, f64), clip: f64) -> bool {
+    let end_s = end_s.min(tr.t.last().copied().unwrap_or(t0_s));
+    let from_s = t0_s + 0.75 * (end_s - t0_s);
+    let mut last: Vec<f64> = tr.t.iter().zip(&tr.v).filter(|(&t, _)| t >= from_s && t <= end_s).map(|(_, &v)| v).collect();
+    !last.is_empty() && crate::sensor::preprocess::median(&mut last) >= clip - tr.clip_margin.max(0.5 * tr.sigma).max(1e-12)
 }
 
 /// τ of the other steps as a straight line in the load (least squares), as the first-order
@@ -90,19 +120,47 @@ pub(super) fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
     best.1
 }
 
+/// The onset of a step falling from the clip with time constant `tau`: where a first-order fall
+/// from the clip (its amplitude free) fits the samples best, on a grid from 1 s before the logged
+/// change to 6 s after it (a rail's fall starts when the noise-free signal, above the rail, comes
+/// down to it).
+fn falling_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
+    let sg = &tr.segs[s];
+    let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+    let pts: Vec<(f64, f64)> = tr.t.iter().zip(&tr.v).filter(|(&t, _)| t >= sg.t_log - 1.0 && t < end.min(sg.t_log + 6.0 + 5.0 * tau)).map(|(&t, &v)| (t, v - clip)).collect();
+    let mut best = (f64::INFINITY, sg.t0);
+    for g in 0..=700 {
+        let t0 = sg.t_log - 1.0 + 0.01 * g as f64;
+        // v − clip = b·u(t), u = 1 − e^(−(t − t0)/τ) after t0: least squares in b
+        let (mut s_uu, mut s_uv, mut s_vv) = (0.0, 0.0, 0.0);
+        for &(t, v) in &pts {
+            let u = if t > t0 { 1.0 - catalogue::decay((t - t0) / tau) } else { 0.0 };
+            s_uu += u * u;
+            s_uv += u * v;
+            s_vv += v * v;
+        }
+        if s_uu <= 0.0 {
+            continue;
+        }
+        let rss = s_vv - s_uv * s_uv / s_uu;
+        if rss < best.0 {
+            best = (rss, t0);
+        }
+    }
+    best.1
+}
+
 /// Time constants and onsets of the steps rising into a clip: τ from the other steps' τ line,
 /// onset from a local fit below the clip (the part-1 fit of the clipped shape is biased). The steps
 /// falling from it restart at the clip instead (`Config::restart`).
 pub(super) fn clip_fixes(trials: &[Trial], clip: f64, steps: &ClipSteps) -> Vec<FixedStep> {
     let Some((a, b)) = tau_line(trials, &[steps.into.as_slice(), steps.from.as_slice()].concat()) else { return vec![] };
-    steps
-        .into
-        .iter()
-        .map(|&(k, s)| {
-            let tau_s = (a + b * trials[k].segs[s].load).max(1e-3);
-            FixedStep { at: (k, s), tau_s, t0_s: rising_onset(&trials[k], s, tau_s, clip) }
-        })
-        .collect()
+    let tau_at = |k: usize, s: usize| (a + b * trials[k].segs[s].load).max(1e-3);
+    let into = steps.into.iter().map(|&(k, s)| FixedStep { at: (k, s), tau_s: tau_at(k, s), t0_s: rising_onset(&trials[k], s, tau_at(k, s), clip) });
+    // a rail's falling steps leave it late (the noise-free signal falls from above it): their onset
+    // is where they leave it, fitted below it with the τ line's τ (part 1 looked for it near the log)
+    let from = steps.from.iter().filter(|_| steps.rail).map(|&(k, s)| FixedStep { at: (k, s), tau_s: tau_at(k, s), t0_s: falling_onset(&trials[k], s, tau_at(k, s), clip) });
+    into.chain(from).collect()
 }
 
 pub(super) fn clip_level(trials: &[Trial]) -> Option<f64> {
@@ -110,12 +168,52 @@ pub(super) fn clip_level(trials: &[Trial]) -> Option<f64> {
     catalogue::saturation::clip_level(&trials.iter().map(|t| t.v.as_slice()).collect::<Vec<_>>(), sigma)
 }
 
+/// How far the top load's increment must fall short of what the two increments below it predict
+/// for a rail to be proposed. A divider's compression slows the increments smoothly: over power
+/// laws G ∝ F^n with n 0.85–1.25, the top load at 70–90 % of the divider's span, 5 equal weights
+/// of 40 or 200 g and preloads of 0.05–0.3 N, the top increment is 1.03–1.14 × the geometric
+/// continuation of the two below it (noise-free); a rail cuts it.
+pub(super) const RAIL_COLLAPSE: f64 = 0.85;
+
+/// An amplifier's rail before the noise (issue 15, item 4): the samples do not pile up at one value
+/// (the plateau is the rail ± the noise, so [`clip_level`] sees none), but the staircase of levels
+/// collapses at the top — the highest load's level rises by under [`RAIL_COLLAPSE`] of the
+/// geometric continuation of the two increments below it. The rail is then proposed at the median
+/// of the top load's settled samples (the second half of each of its holds); whether the clip there
+/// predicts held-out data better is the gate's to decide, and a rail is never reported on its
+/// plateau alone.
+pub(super) fn rail_level(trials: &[Trial], hat: &Hat) -> Option<f64> {
+    let mut lv: Vec<(f64, f64)> = hat.loads.iter().copied().zip(hat.level.iter().copied()).collect();
+    lv.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let m = lv.len();
+    if m < 4 {
+        return None;
+    }
+    let d: Vec<f64> = lv.windows(2).map(|w| w[1].1 - w[0].1).collect();
+    let (a, b, top) = (d[m - 4], d[m - 3], d[m - 2]);
+    if !(a > 0.0 && b > 0.0) || top >= RAIL_COLLAPSE * b * (b / a).min(1.0) {
+        return None;
+    }
+    let top_load = lv[m - 1].0;
+    let mut settled: Vec<f64> = Vec::new();
+    for tr in trials {
+        let last = tr.t.last().copied().unwrap_or(0.0);
+        for (s, sg) in tr.segs.iter().enumerate().filter(|(_, sg)| sg.load == top_load) {
+            let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(last).min(last);
+            let mid = sg.t0 + 0.5 * (end - sg.t0);
+            settled.extend(tr.t.iter().zip(&tr.v).filter(|(&t, _)| t >= mid && t < end).map(|(_, &v)| v));
+        }
+    }
+    (settled.len() >= 10).then(|| crate::sensor::preprocess::median(&mut settled))
+}
+
 impl ClipSteps {
-    /// The steps a clip at `clip` shapes (none without a clip).
-    pub(super) fn of(trials: &[Trial], clip: Option<f64>) -> ClipSteps {
+    /// The steps a clip at `clip` shapes (none without a clip); `rail`: an amplifier's rail before
+    /// the noise.
+    pub(super) fn of(trials: &[Trial], clip: Option<f64>, rail: bool) -> ClipSteps {
         match clip {
-            Some(c) => clipped_segments(trials, c),
-            None => ClipSteps { into: vec![], from: vec![], units: vec![] },
+            Some(c) => clipped_segments(trials, c, rail),
+            None => ClipSteps { into: vec![], from: vec![], units: vec![vec![]], rail },
         }
     }
 }
@@ -132,12 +230,41 @@ mod tests {
         let b = fixture::built(&fixture::recs(7000, |s| s.effects.saturation_v = 1.55));
         let level = clip_level(&b.trials).expect("the clip level");
         assert!((level - 1.55).abs() < 0.01, "{level}");
-        let steps = ClipSteps::of(&b.trials, Some(level));
+        let steps = ClipSteps::of(&b.trials, Some(level), false);
         let load = |&(k, s): &(usize, usize)| (b.trials[k].segs[s].prev, b.trials[k].segs[s].load);
         assert_eq!(steps.into.iter().map(load).collect::<Vec<_>>(), vec![(800.0, 1000.0); 3]);
         assert_eq!(steps.from.iter().map(load).collect::<Vec<_>>(), vec![(1000.0, 800.0); 3]);
         let fixes = clip_fixes(&b.trials, level, &steps);
         assert_eq!(fixes.len(), 3);
         assert!(clip_level(&fixture::built(&fixture::recs(7000, |_| {})).trials).is_none());
+    }
+
+    /// Compressed top levels (a conductance exponent of 0.85, the top load at 85 % of the span):
+    /// no rail is proposed on them; with an amplifier's rail before the noise a quarter of the way
+    /// from the fourth level to the top one, it is, at the rail (± a tenth of the top increment),
+    /// and its evidence is in two groups (the rises into it, the falls that leave it late).
+    #[test]
+    fn a_rail_is_proposed_where_the_staircase_is_cut_not_where_it_compresses() {
+        let compress = |s: &mut crate::params::sensor::SensorParams| {
+            s.exponent = 0.85;
+            s.g_ref_s = (0.85 / 0.15) / (s.circuit.r_m_ohm * (1.02 * 9.80665f64).powf(0.85));
+        };
+        let null = fixture::built(&fixture::recs(94_000, compress));
+        assert_eq!(rail_level(&null.trials, &null.hat), None);
+        let s = fixture::sensor(compress);
+        let level = |g: f64| s.v_eq((g + 20.0) / 1000.0 * 9.80665);
+        let rail = level(800.0) + 0.25 * (level(1000.0) - level(800.0));
+        let b = fixture::built(&fixture::recs(94_000, |s| {
+            compress(s);
+            s.effects.saturation_v = rail;
+            s.effects.saturation_before_noise = true;
+        }));
+        assert_eq!(clip_level(&b.trials), None, "a rail before the noise piles no samples up");
+        let found = rail_level(&b.trials, &b.hat).expect("a rail");
+        assert!((found - rail).abs() < 0.1 * (level(1000.0) - level(800.0)), "{found} vs {rail}");
+        let steps = ClipSteps::of(&b.trials, Some(found), true);
+        assert_eq!(steps.units.len(), 2);
+        assert_eq!(steps.units[1].len(), 3, "{:?}", steps.units);
+        assert!(clip_fixes(&b.trials, found, &steps).len() == 6, "the rises into the rail and the falls from it");
     }
 }

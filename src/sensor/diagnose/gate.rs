@@ -65,10 +65,15 @@ pub(super) fn diff_z(before: &[f64], after: &[f64]) -> f64 {
 }
 
 /// The paired z of a change that adds or removes a clip (`clip`): a clip can only change the units
-/// that reach it (`clip_units`), so its evidence is tested there; any other change over every unit.
-pub(super) fn change_z(clip: bool, before: &Score, after: &Score, clip_units: &[(usize, usize)]) -> f64 {
+/// that reach it, so its evidence is tested there, in each group of `clip_units` on its own (the
+/// largest z counts); any other change over every unit.
+pub(super) fn change_z(clip: bool, before: &Score, after: &Score, clip_units: &[Vec<(usize, usize)>]) -> f64 {
     if clip {
-        paired_z_on(before, after, clip_units)
+        let groups: Vec<&Vec<(usize, usize)>> = clip_units.iter().filter(|g| !g.is_empty()).collect();
+        if groups.is_empty() {
+            return paired_z(&before.units, &after.units);
+        }
+        groups.iter().map(|g| paired_z_on(before, after, g)).fold(f64::NEG_INFINITY, f64::max)
     } else {
         paired_z(&before.units, &after.units)
     }

@@ -190,12 +190,15 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
         return Some(Outcome::SpikesRejected { windows, before: b.base.heldout_rmse, after: clean.heldout_rmse, unit: b.report.unit.clone() });
     }
     // 3. locate: every test on the baseline's residuals (the clean fit), before any term is chosen
-    let clip = clip_level(&b.trials);
+    // a clip: samples piled at one value, or an amplifier's rail before the noise (the levels'
+    // staircase cut at the top; only ever modelled, never reported on its plateau)
+    let piled = clip_level(&b.trials);
+    let clip = piled.or_else(|| rail_level(&b.trials, &b.hat));
     let located = located_windows(&b.d, &b.trials, &xc, &b.base_cfg, &b.hat, clip, &b.report);
-    let clip_steps = ClipSteps::of(&b.trials, clip);
+    let clip_steps = ClipSteps::of(&b.trials, clip, piled.is_none());
     // 4. name the physics left out: terms selected held out, alternatives, the relaxation spectrum
     let actuator = !opts.pre.handling || recs.iter().any(|r| r.meta.all.get("loading").is_some_and(|l| l.trim() == "actuator"));
     let chosen = select::choose(&b, (&clean, &xc), clip, &clip_steps, actuator);
     // 5. model it, refit, and report
-    Some(Outcome::Done(Box::new(report::diagnosis(recs, opts, sim, b, chosen, (&clean, located), clip, refit_always))))
+    Some(Outcome::Done(Box::new(report::diagnosis(recs, opts, sim, b, chosen, (&clean, located), piled, refit_always))))
 }

@@ -349,10 +349,11 @@ pub struct Advice {
 /// unexplained, the final refit and its predictions (`refit`), the units' errors, the improved
 /// model's first-order part, and the spectrum's finding named by its fitted shape.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn diagnosis(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, b: Built, ch: Chosen, (clean, located): (&Score, Vec<LocatedWindow>), clip: Option<f64>, refit_always: bool) -> Diagnosis {
+pub(super) fn diagnosis(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, b: Built, ch: Chosen, (clean, located): (&Score, Vec<LocatedWindow>), piled: Option<f64>, refit_always: bool) -> Diagnosis {
     let Built { report, trials, d, hat: hat0, base_cfg, base_eval, base_fit, base, xb, .. } = b;
     let Chosen { cfg: cur, score: cur_score, x: cur_x, hat, mut findings, decisions, mut nuisances, spectrum_exact } = ch;
-    findings.extend(reported_only(&trials, &cur, &cur_score, clip, &report, (&base, clean)));
+    // a clip reported on its plateau alone is one whose samples pile up (`piled`), never a rail's
+    findings.extend(reported_only(&trials, &cur, &cur_score, piled, &report, (&base, clean)));
     let unexplained = unexplained(&d, &trials, &cur_x, &cur, &hat, &report.unit);
     let (cur, cur_x, final_trials, final_base, xb) = refit::final_refit(&d, trials, base_eval, &base_fit, (&base_cfg, &hat0, xb), (cur, cur_x, &hat), &mut findings, refit_always);
     let predictions = refit::predictions(recs, &d, &final_trials, &final_base, (&base_cfg, &hat0, &xb), (&cur, &hat, &cur_x), &findings);
@@ -435,7 +436,7 @@ mod tests {
         assert_eq!(taus.len(), 30);
         let truth_tau: Vec<f64> = truth.iter().flat_map(|t| t.steps.iter().map(|s| s.tau_s)).collect();
         assert!(taus.iter().zip(&truth_tau).all(|(m, t)| (m[1] / t - 1.0).abs() < 0.35), "{taus:?} vs {truth_tau:?}");
-        let steps = ClipSteps::of(&b.trials, None);
+        let steps = ClipSteps::of(&b.trials, None, false);
         let ctx = fixture::ctx(&b, &steps, &b.hat);
         let c = candidate(Effect::BaselineDrift, &b.base_cfg, &ctx).unwrap();
         let (_, x) = score(&b.d, &b.trials, &c, &b.hat).unwrap();

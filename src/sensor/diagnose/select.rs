@@ -242,7 +242,7 @@ mod tests {
     fn selection_takes_the_term_the_data_need_and_nothing_else() {
         for (rate, want) in [(1e-4, vec!["baseline_drift"]), (0.0, vec![])] {
             let b = fixture::built(&fixture::recs(93_000, |s| s.effects.drift_v_per_s = rate));
-            let steps = ClipSteps::of(&b.trials, None);
+            let steps = ClipSteps::of(&b.trials, None, false);
             let ctx = fixture::ctx(&b, &steps, &b.hat);
             let (clean, xc) = score(&b.d, &b.trials, &b.base_cfg, &b.hat).unwrap();
             let sel = select(&b.base_cfg, clean, xc, b.hat.clone(), &ctx, &b.report);

@@ -160,7 +160,7 @@ mod tests {
     #[test]
     fn a_candidate_and_its_removal_give_the_model_back() {
         let b = fixture::built(&fixture::recs(7000, |s| s.effects.saturation_v = 1.55));
-        let steps = ClipSteps::of(&b.trials, clip_level(&b.trials));
+        let steps = ClipSteps::of(&b.trials, clip_level(&b.trials), false);
         let ctx = fixture::ctx(&b, &steps, &b.hat);
         let base = &b.base_cfg;
         for e in [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift, Effect::Saturation, Effect::RestRelaxation] {
