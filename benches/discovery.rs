@@ -298,6 +298,18 @@ fn main() {
                 s.effects.saturation_before_noise = true
             }),
         ),
+        // the same with the lab's nuisances: a hand's touch with its press, the trials' gains,
+        // rest relaxations and AR noise
+        (
+            "the same with a hand's touch and the trial nuisances",
+            Box::new(|s, p| {
+                compress(s, 0.85, 0.85);
+                s.effects.saturation_before_noise = true;
+                trial_nuisances(s);
+                p.touch_s = 0.5;
+                p.press_fraction = 0.12
+            }),
+        ),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {
