@@ -129,7 +129,9 @@ fn effects(t: &mut String, d: &Diagnosis) {
             },
             "saturation" => {
                 if let Some(v) = num(p, "level") {
-                    let _ = writeln!(t, "[effects.saturation]\nlevel_v = {}", fmt(v));
+                    // an amplifier's rail clips before the noise, an ADC's reference after it
+                    let before = p.get("before_noise").and_then(|b| b.as_bool()).unwrap_or(false);
+                    let _ = writeln!(t, "[effects.saturation]\nlevel_v = {}\nbefore_noise = {before}", fmt(v));
                 }
             }
             other => {

@@ -13,6 +13,9 @@ use super::Located;
 pub const EXPLANATION: &str =
     "the response is clipped at a ceiling (ADC reference or amplifier rail): samples pile up at one value under the highest loads, modelled by clipping the prediction";
 
+/// An amplifier's rail before the noise: no samples pile up.
+pub const RAIL_EXPLANATION: &str = "the response is clipped at an amplifier's rail before the noise (its plateau is the rail ± the noise, so no samples pile up): the levels' staircase is cut at the top, and the steps falling from the rail leave it late; modelled by clipping the prediction";
+
 /// The clip level of the series, if they show a clipped plateau.
 pub fn clip_level(series: &[&[f64]], sigma: f64) -> Option<f64> {
     let vmax = series.iter().flat_map(|v| v.iter().copied()).fold(f64::NEG_INFINITY, f64::max);

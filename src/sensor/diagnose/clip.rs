@@ -28,7 +28,7 @@ pub(super) fn clipped_segments(trials: &[Trial], clip: f64, rail: bool) -> ClipS
             let reaches = tr.t.iter().zip(&tr.v).any(|(&t, &v)| t >= sg.t0 && t < end && v >= clip - at);
             if prev_clipped && sg.load < sg.prev {
                 from.push((k, s));
-            } else if reaches {
+            } else if reaches && sg.load > sg.prev {
                 into.push((k, s));
             }
             // the next step falls from the clip only when this hold ends at it (a step falling from
@@ -40,7 +40,14 @@ pub(super) fn clipped_segments(trials: &[Trial], clip: f64, rail: bool) -> ClipS
     // onsets are moved so the clip leaves them as they were); a rail's also its falling steps, which
     // leave it late — two kinds of evidence (the rise's corner, the late fall), each tested on its
     // own; steps that start and end at the rail have no shape to change
-    let unit = |&(k, s): &(usize, usize)| (k, s + 1);
+    // the held-out units: segments from 1 at the first onset of each trial; one recording's are
+    // its steps (left out one by one), or blocks of holds, which a clip's steps do not map to
+    // (no group: every unit)
+    let one = trials.len() == 1;
+    if one && hold_blocks(trials) > 0 {
+        return ClipSteps { into, from, units: vec![], rail };
+    }
+    let unit = |&(k, s): &(usize, usize)| if one { (k, s) } else { (k, s + 1) };
     let units = if rail {
         let rises = into.iter().filter(|&&(k, s)| !starts_at(&trials[k], s, clip)).map(unit).collect();
         let falls = from.iter().filter(|&&(k, s)| !ends_at(&trials[k], (trials[k].segs[s].t0, trials[k].segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY)), clip)).map(unit).collect();
@@ -121,20 +128,22 @@ pub(super) fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
 }
 
 /// The onset of a step falling from the clip with time constant `tau`: where a first-order fall
-/// from the clip (its amplitude free) fits the samples best, on a grid from 1 s before the logged
-/// change to 6 s after it (a rail's fall starts when the noise-free signal, above the rail, comes
-/// down to it).
+/// from the clip (its amplitude free) fits the samples best, on a grid from 1 s before the step's
+/// onset or logged change to 6 s + 3τ after the change (a rail's fall starts when the noise-free
+/// signal, above the rail, comes down to it) or the next step.
 fn falling_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
     let sg = &tr.segs[s];
     let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
-    let pts: Vec<(f64, f64)> = tr.t.iter().zip(&tr.v).filter(|(&t, _)| t >= sg.t_log - 1.0 && t < end.min(sg.t_log + 6.0 + 5.0 * tau)).map(|(&t, &v)| (t, v - clip)).collect();
+    let (lo, hi) = (sg.t0.min(sg.t_log) - 1.0, end.min(sg.t_log + 6.0 + 3.0 * tau));
+    let pts: Vec<(f64, f64)> = tr.t.iter().zip(&tr.v).filter(|(&t, _)| t >= lo && t < end.min(hi + 5.0 * tau)).map(|(&t, &v)| (t, v - clip)).collect();
     let mut best = (f64::INFINITY, sg.t0);
-    for g in 0..=700 {
-        let t0 = sg.t_log - 1.0 + 0.01 * g as f64;
-        // v − clip = b·u(t), u = 1 − e^(−(t − t0)/τ) after t0: least squares in b
+    let n = (((hi - lo) / 0.01).ceil() as usize).clamp(1, 2000);
+    for g in 0..=n {
+        let t0 = lo + (hi - lo) * g as f64 / n as f64;
+        // v − clip = b·u(t), u the step's rise from t0 (its ramp, if any): least squares in b
         let (mut s_uu, mut s_uv, mut s_vv) = (0.0, 0.0, 0.0);
         for &(t, v) in &pts {
-            let u = if t > t0 { 1.0 - catalogue::decay((t - t0) / tau) } else { 0.0 };
+            let u = if t + sg.input.ramp_s > t0 { rise(t, t0, tau, 0.0, sg.input) } else { 0.0 };
             s_uu += u * u;
             s_uv += u * v;
             s_vv += v * v;
@@ -182,16 +191,21 @@ pub(super) const RAIL_COLLAPSE: f64 = 0.85;
 /// of the top load's settled samples (the second half of each of its holds); whether the clip there
 /// predicts held-out data better is the gate's to decide, and a rail is never reported on its
 /// plateau alone.
-pub(super) fn rail_level(trials: &[Trial], hat: &Hat) -> Option<f64> {
+pub(super) fn rail_level(d: &Design, trials: &[Trial], hat: &Hat) -> Option<f64> {
+    // with a simulator baseline the levels are the simulator's, not the data's
+    if d.prior {
+        return None;
+    }
     let mut lv: Vec<(f64, f64)> = hat.loads.iter().copied().zip(hat.level.iter().copied()).collect();
     lv.sort_by(|a, b| a.0.total_cmp(&b.0));
     let m = lv.len();
     if m < 4 {
         return None;
     }
-    let d: Vec<f64> = lv.windows(2).map(|w| w[1].1 - w[0].1).collect();
-    let (a, b, top) = (d[m - 4], d[m - 3], d[m - 2]);
-    if !(a > 0.0 && b > 0.0) || top >= RAIL_COLLAPSE * b * (b / a).min(1.0) {
+    // increments per unit of load (the weights may differ)
+    let inc: Vec<f64> = lv.windows(2).map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0)).collect();
+    let (a, b, top) = (inc[m - 4], inc[m - 3], inc[m - 2]);
+    if !(a > 0.0 && b > 0.0 && top < RAIL_COLLAPSE * b * (b / a).min(1.0)) {
         return None;
     }
     let top_load = lv[m - 1].0;
@@ -250,21 +264,32 @@ mod tests {
             s.g_ref_s = (0.85 / 0.15) / (s.circuit.r_m_ohm * (1.02 * 9.80665f64).powf(0.85));
         };
         let null = fixture::built(&fixture::recs(94_000, compress));
-        assert_eq!(rail_level(&null.trials, &null.hat), None);
+        assert_eq!(rail_level(&null.d, &null.trials, &null.hat), None);
         let s = fixture::sensor(compress);
         let level = |g: f64| s.v_eq((g + 20.0) / 1000.0 * 9.80665);
         let rail = level(800.0) + 0.25 * (level(1000.0) - level(800.0));
-        let b = fixture::built(&fixture::recs(94_000, |s| {
+        let (recs, truth) = fixture::recs_and_truth(94_000, |s| {
             compress(s);
             s.effects.saturation_v = rail;
             s.effects.saturation_before_noise = true;
-        }));
+        });
+        let b = fixture::built(&recs);
         assert_eq!(clip_level(&b.trials), None, "a rail before the noise piles no samples up");
-        let found = rail_level(&b.trials, &b.hat).expect("a rail");
+        let found = rail_level(&b.d, &b.trials, &b.hat).expect("a rail");
         assert!((found - rail).abs() < 0.1 * (level(1000.0) - level(800.0)), "{found} vs {rail}");
         let steps = ClipSteps::of(&b.trials, Some(found), true);
-        assert_eq!(steps.units.len(), 2);
-        assert_eq!(steps.units[1].len(), 3, "{:?}", steps.units);
-        assert!(clip_fixes(&b.trials, found, &steps).len() == 6, "the rises into the rail and the falls from it");
+        let load = |&(k, s): &(usize, usize)| (b.trials[k].segs[s].prev, b.trials[k].segs[s].load);
+        assert_eq!(steps.into.iter().map(load).collect::<Vec<_>>(), vec![(800.0, 1000.0); 3]);
+        assert_eq!(steps.from.iter().map(load).collect::<Vec<_>>(), vec![(1000.0, 800.0); 3]);
+        assert_eq!(steps.units, vec![steps.into.iter().map(|&(k, s)| (k, s + 1)).collect::<Vec<_>>(), steps.from.iter().map(|&(k, s)| (k, s + 1)).collect()]);
+        // the falls leave the rail when the noise-free signal, from 1000 g's level, comes down to it:
+        // a quarter of the step is left at 800 g, after ln 4 time constants
+        let fixes = clip_fixes(&b.trials, found, &steps);
+        assert_eq!(fixes.len(), 6, "the rises into the rail and the falls from it");
+        for fx in fixes.iter().filter(|fx| steps.from.contains(&fx.at)) {
+            let land = truth[fx.at.0].steps[fx.at.1].t_land_s;
+            let leave = land + 4f64.ln() * s.tau((800.0 + 20.0) / 1000.0 * 9.80665);
+            assert!((fx.t0_s - leave).abs() < 0.4, "leaves at {} s, expected {leave} s (landed {land} s)", fx.t0_s);
+        }
     }
 }

@@ -94,11 +94,6 @@ pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]
     paired_z(&b, &a)
 }
 
-/// The z of the accepted candidate `e` in round `round`.
-pub(super) fn z_of(decisions: &[Decision], round: usize, e: Effect) -> f64 {
-    decisions.iter().rev().find(|dc| dc.step == round && dc.candidate == e.name()).map(|dc| dc.z).unwrap_or(f64::NAN)
-}
-
 /// A finding's confidence from its held-out gain and its ΔBIC.
 pub(super) fn confidence(dbic: f64, gain: f64) -> &'static str {
     if dbic < -100.0 && gain > 0.05 {

@@ -302,7 +302,9 @@ mod tests {
         assert!(s.heldout_rmse < 3e-3 && s.heldout_rmse >= 0.8 * s.rmse, "{} / {}", s.heldout_rmse, s.rmse);
         recs[1].response.iter_mut().for_each(|v| *v += 0.05);
         let b2 = fixture::built(&recs);
-        let (s2, _) = score(&b2.d, &b2.trials, &b2.base_cfg, &b2.hat).unwrap();
+        let (s2, x2) = score(&b2.d, &b2.trials, &b2.base_cfg, &b2.hat).unwrap();
+        let (_, x) = score(&b.d, &b.trials, &b.base_cfg, &b.hat).unwrap();
+        assert!(((x2[1] - x[1]) - 0.05).abs() < 2e-3, "the shift reached the trial's offset: {} -> {}", x[1], x2[1]);
         assert!(s2.heldout_rmse < 1.1 * s.heldout_rmse, "{} -> {}", s.heldout_rmse, s2.heldout_rmse);
         // the shift is there to be absorbed: the fit's own offsets took it (the trial's offset moved)
         assert!(s2.rmse < 1.1 * s.rmse);

@@ -14,8 +14,8 @@
 //! The pipeline (`run`), one stage per file:
 //! 1. `baseline` — an actuator's load ramp chosen once per data set by the baseline's own
 //!    cross-validation (`with_ramp`; the ramp's response and each step's own ramp are `input`'s);
-//!    part 1's step fits as trials (`model`); the paper's model fitted and scored held out
-//!    (`heldout`, solved through `normal`), or the simulator's prediction;
+//!    part 1's step fits as trials (`trials_from`, the types in `model`); the paper's model fitted
+//!    and scored held out (`heldout`, solved through `normal`), or the simulator's prediction;
 //! 2. the handling spikes' check (here): excluded only when that predicts held-out data better;
 //! 3. `locate` — where the baseline fails: the whiteness test and every effect's signature;
 //! 4. `select` — nuisances (`nuisance`), then the catalogue's terms (`terms`, with `clip` for
@@ -25,8 +25,9 @@
 //!    predictions, and the diagnosis.
 //!
 //! Shared by the stages, and calling none of them: `model`, `first_order` (the filtered first-order
-//! rise and its derivatives), `input`, `normal`, `heldout` and `gate`. A stage calls only those and
-//! the stages before it.
+//! rise and its derivatives), `input`, `normal`, `heldout`, `gate` and `parameters` (a term's
+//! parameters and the first-order part as reported). A stage calls only those and the stages before
+//! it; the report's types (`Finding`, `Decision`, …) are data every stage may build.
 
 mod alternatives;
 mod baseline;
@@ -41,6 +42,7 @@ mod locate;
 mod model;
 mod normal;
 mod nuisance;
+mod parameters;
 mod refit;
 mod report;
 mod select;
@@ -62,6 +64,7 @@ use locate::*;
 use model::*;
 use nalgebra::{DMatrix, DVector};
 use normal::*;
+use parameters::*;
 use select::Chosen;
 use serde::Serialize;
 use spectrum::*;
@@ -193,9 +196,9 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     // a clip: samples piled at one value, or an amplifier's rail before the noise (the levels'
     // staircase cut at the top; only ever modelled, never reported on its plateau)
     let piled = clip_level(&b.trials);
-    let clip = piled.or_else(|| rail_level(&b.trials, &b.hat));
-    let located = located_windows(&b.d, &b.trials, &xc, &b.base_cfg, &b.hat, clip, &b.report);
-    let clip_steps = ClipSteps::of(&b.trials, clip, piled.is_none());
+    let clip = piled.or_else(|| rail_level(&b.d, &b.trials, &b.hat));
+    let located = located_windows(&b.d, &b.trials, &xc, &b.base_cfg, &b.hat, piled, &b.report);
+    let clip_steps = ClipSteps::of(&b.trials, clip, clip.is_some() && piled.is_none());
     // 4. name the physics left out: terms selected held out, alternatives, the relaxation spectrum
     let actuator = !opts.pre.handling || recs.iter().any(|r| r.meta.all.get("loading").is_some_and(|l| l.trim() == "actuator"));
     let chosen = select::choose(&b, (&clean, &xc), clip, &clip_steps, actuator);

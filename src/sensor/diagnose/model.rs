@@ -83,6 +83,8 @@ pub(super) struct Config {
     /// Baseline drift as an exponential warm-up with this time constant from each trial's start
     /// (shared by the trials, as the rate is); None: linear (the warm-up's limit of long τ).
     pub(super) drift_tau: Option<f64>,
+    /// The clip is an amplifier's rail before the noise (its plateau is the rail ± the noise).
+    pub(super) clip_rail: bool,
 }
 
 /// The relaxation spectrum's shape: kernels on a log grid of τ, driven by the load as applied (a
@@ -129,7 +131,7 @@ pub(super) struct FixedStep {
 impl Config {
     /// The paper's model: first-order steps with free time constants, no term.
     pub(super) fn first_order() -> Config {
-        Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None, gains: false, rest_tau: None, drift_tau: None }
+        Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None, gains: false, rest_tau: None, drift_tau: None, clip_rail: false }
     }
     pub(super) fn fixed(&self, i: usize, s: usize) -> Option<&FixedStep> {
         self.tau_fixed.iter().find(|x| x.at == (i, s))

@@ -216,10 +216,18 @@ pub(super) fn solve_normal(d: &Design, cfg: &Config, n: &Normal, support: Option
             aty[a] = 0.0;
         }
     }
-    // a column without data, or with none to speak of (a level reached only through transients
-    // settled to 1e-9 of its step: a load whose every sample sits at a clip)
+    // a column without data, or, with a clip, a level with none to speak of (reached only through
+    // transients settled to 1e-9 of its step: a load whose every sample sits at the clip), which is
+    // left out of the solve and set to the clip below
     let level_scale = (d.n_trials..d.n_levels()).map(|a| ata[(a, a)]).fold(0.0, f64::max);
-    let empty: Vec<bool> = (0..p).map(|a| ata[(a, a)] == 0.0 || (a >= d.n_trials && a < d.n_levels() && ata[(a, a)] < 1e-9 * level_scale)).collect();
+    let empty: Vec<bool> = (0..p).map(|a| ata[(a, a)] == 0.0 || (cfg.clip.is_some() && a >= d.n_trials && a < d.n_levels() && ata[(a, a)] < 1e-9 * level_scale)).collect();
+    for a in (0..p).filter(|&a| empty[a]) {
+        for b in 0..p {
+            ata[(a, b)] = 0.0;
+            ata[(b, a)] = 0.0;
+        }
+        aty[a] = 0.0;
+    }
     if let (Some(rx), true) = (&cfg.relax, cfg.effects.contains(&Effect::Relaxation)) {
         let (k, m) = (rx.taus.len(), rx.sets() * rx.taus.len());
         let c0 = term_col(d, cfg, Effect::Relaxation);

@@ -59,7 +59,11 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
             findings.push(Finding {
                 effect: e.name(),
                 confidence: confidence(dbic, gain),
-                explanation: if e == Effect::SecondTimeConstant { c.drive.explanation().to_string() } else { e.explanation().to_string() },
+                explanation: match e {
+                    Effect::SecondTimeConstant => c.drive.explanation().to_string(),
+                    Effect::Saturation if c.clip_rail => catalogue::saturation::RAIL_EXPLANATION.to_string(),
+                    _ => e.explanation().to_string(),
+                },
                 windows,
                 term: Term { name: format!("{}_term", e.name()), params },
                 heldout_rmse_before: cur_score.heldout_rmse,
@@ -94,6 +98,11 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
     Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, round0_exact }
 }
 
+
+/// The z of the accepted candidate `e` in round `round`.
+pub(super) fn z_of(decisions: &[Decision], round: usize, e: Effect) -> f64 {
+    decisions.iter().rev().find(|dc| dc.step == round && dc.candidate == e.name()).map(|dc| dc.z).unwrap_or(f64::NAN)
+}
 
 /// A term the forward step accepts, with its model, score and solution.
 type Pick = (Effect, Config, Score, Vec<f64>);

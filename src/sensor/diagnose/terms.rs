@@ -79,6 +79,7 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
             c.clip = clip;
             c.tau_fixed = clip.map(|level| clip_fixes(trials, level, clip_steps)).unwrap_or_default();
             c.restart = clip_steps.from.clone();
+            c.clip_rail = clip_steps.rail;
             vec![c]
         }
         _ => {
@@ -140,6 +141,7 @@ pub(super) fn without(cur: &Config, idx: usize) -> Config {
         c.clip = None;
         c.tau_fixed.clear();
         c.restart.clear();
+        c.clip_rail = false;
     }
     if e == Effect::RestRelaxation {
         c.rest_tau = None;
