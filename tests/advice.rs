@@ -31,7 +31,8 @@ fn simulate_and_diagnose(d: &Path, stem: &str, edit: (&str, &str), protocol: &Pa
     assert!(text.contains(edit.0), "{}", edit.0);
     let sensor = d.join(format!("{stem}.toml"));
     std::fs::write(&sensor, text.replacen(edit.0, edit.1, 1)).unwrap();
-    let (code, out) = tipforge(d, &["simulate", "--sensor", s(&sensor), "--protocol", s(protocol), "--seed", &seed.to_string(), "--trials", "3", "-o", s(&d.join(format!("{stem}.csv")))]);
+    let (code, out) =
+        tipforge(d, &["simulate", "--sensor", s(&sensor), "--protocol", s(protocol), "--seed", &seed.to_string(), "--trials", "3", "-o", s(&d.join(format!("{stem}.csv")))]);
     assert_eq!(code, 0, "{out}");
     let recs: Vec<String> = (1..=3).map(|k| s(&d.join(format!("{stem}-{k}.csv"))).to_string()).collect();
     let out_dir = d.join(format!("diag-{stem}"));

@@ -100,7 +100,12 @@ fn a_channel_beside_a_pocket_leaves_a_printable_wall_or_opens_into_it() {
             assert_eq!(code == 0, offset == "5.0", "{offset}: {text}");
         } else {
             assert_eq!(code, 2, "{offset}: {text}");
-            assert!(text.contains(&format!("sensor[0].channel_offset_mm = {offset}: the tail channel comes")) && text.contains("route it beside") && text.contains("open into the pocket's rim"), "{offset}: {text}");
+            assert!(
+                text.contains(&format!("sensor[0].channel_offset_mm = {offset}: the tail channel comes"))
+                    && text.contains("route it beside")
+                    && text.contains("open into the pocket's rim"),
+                "{offset}: {text}"
+            );
         }
     }
 }
@@ -192,7 +197,11 @@ fn rig_rules_name_the_offending_key() {
         ("plate_diameter_mm = 60.0", "plate_diameter_mm = 30.0", "must carry the weights"),
         ("stem_length_mm = 24.0", "stem_length_mm = 2.0", "cannot hold the plunger vertical"),
         ("max_load_g = 1000.0 ", "stop_gap_mm = 1.5\nmax_load_g = 1000.0 ", "overtravel stop"),
-        ("height_mm = 8.0", "height_mm = 8.1", "base.height_mm = 8.1: is not a whole number of 0.2 mm layers (print.layer_height_mm), so it would print as 8 or 8.2 mm: use 8 or 8.2"),
+        (
+            "height_mm = 8.0",
+            "height_mm = 8.1",
+            "base.height_mm = 8.1: is not a whole number of 0.2 mm layers (print.layer_height_mm), so it would print as 8 or 8.2 mm: use 8 or 8.2",
+        ),
     ];
     // all at once: every problem in one run
     let d = dir("rig-all");
@@ -492,7 +501,9 @@ fn a_cover_over_a_screw_recess_is_refused() {
     assert_eq!(code, 2, "{text}");
     let line = 1 + mold.lines().position(|l| l.starts_with("from_tip_mm")).unwrap();
     assert!(
-        text.contains(&format!("mold-2s.toml:{line}: cover.from_tip_mm")) && text.contains("runs over the head recess of the fingertip's hole 0") && text.contains("raise the hole to z ≥ 1.30"),
+        text.contains(&format!("mold-2s.toml:{line}: cover.from_tip_mm"))
+            && text.contains("runs over the head recess of the fingertip's hole 0")
+            && text.contains("raise the hole to z ≥ 1.30"),
         "{text}"
     );
 }

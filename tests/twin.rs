@@ -144,7 +144,8 @@ fn a_twin_from_a_force_recording_is_in_the_simulators_units() {
         std::fs::write(d.join(format!("force-{k}.csv")), out).unwrap();
     }
     let twin = d.join("force-twin.toml");
-    let (code, out) = tipforge(&["diagnose", s(&d.join("force-1.csv")), s(&d.join("force-2.csv")), s(&d.join("force-3.csv")), "--out", s(&d.join("fdiag")), "--write-sensor", s(&twin)]);
+    let (code, out) =
+        tipforge(&["diagnose", s(&d.join("force-1.csv")), s(&d.join("force-2.csv")), s(&d.join("force-3.csv")), "--out", s(&d.join("fdiag")), "--write-sensor", s(&twin)]);
     assert_eq!(code, 0, "{out}");
     let t = sensor(&twin);
     within("g_ref_s", t.g_ref_s, grams_twin.g_ref_s, 0.01);

@@ -2,8 +2,8 @@
 //! need the body shape; `build` makes the part (body from exact surfaces, every feature cut in one
 //! boolean).
 
-pub mod shape;
 pub mod section_plot;
+pub mod shape;
 
 use crate::error::{Error, Result};
 use crate::mesh::{self, add, frame, scale, segments, sub, Solid, P3};
@@ -245,11 +245,7 @@ fn seat_rules(p: &FingertipParams, shape: &Shape, i: usize, s: &Sensor, out: &mu
     let k = |f: &str| format!("sensor[{i}].{f}");
     match seat(shape, s) {
         Err(why) => {
-            push(
-                k("position_from_tip_mm"),
-                format!("{} (lateral {})", s.position_from_tip_mm, s.lateral_offset_mm),
-                format!("{why}; the seat must be a flat region of the pad"),
-            );
+            push(k("position_from_tip_mm"), format!("{} (lateral {})", s.position_from_tip_mm, s.lateral_offset_mm), format!("{why}; the seat must be a flat region of the pad"));
             None
         }
         Ok(st) => {
@@ -364,7 +360,8 @@ fn sensor_pair_rules(p: &FingertipParams, shape: &Shape, seats: &[Option<Seat>],
             let clear = r + half + crate::checks::min_feature::MIN_FEATURE_MM;
             let (open_lo, open_hi) = (sj.dome_diameter_mm / 2.0 + half, r + half - OPEN_INTO_POCKET_MM);
             if d < clear && !(d >= open_lo && d <= open_hi) {
-                let open = if open_lo <= open_hi { format!(", or let it open into the pocket's rim ({:.2}–{:.2} mm)", cy.abs() + open_lo, cy.abs() + open_hi) } else { String::new() };
+                let open =
+                    if open_lo <= open_hi { format!(", or let it open into the pocket's rim ({:.2}–{:.2} mm)", cy.abs() + open_lo, cy.abs() + open_hi) } else { String::new() };
                 push(
                     format!("sensor[{i}].channel_offset_mm"),
                     si.channel_offset_mm.to_string(),

@@ -34,7 +34,9 @@ pub fn render(p: &FingertipParams, mesh: &Mesh) -> Option<Vec<u8>> {
     let at: Vec<(f64, &crate::params::fingertip::Station)> = stations.iter().map(|s| (l - s.from_tip_mm, s)).filter(|(x, _)| *x >= 0.0).collect();
     // the mesh, sliced every 0.5 mm: width and the pad's and nail's extremes
     let cuts: Vec<(f64, Vec<[f64; 2]>)> = (1..(2.0 * l) as usize).map(|i| i as f64 * 0.5).map(|x| (x, slice(&design, x + 1e-4))).filter(|(_, s)| !s.is_empty()).collect();
-    let ext = |f: &dyn Fn(&[f64; 2]) -> f64, s: &[[f64; 2]], max: bool| s.iter().map(f).fold(if max { f64::NEG_INFINITY } else { f64::INFINITY }, |a, b| if max { a.max(b) } else { a.min(b) });
+    let ext = |f: &dyn Fn(&[f64; 2]) -> f64, s: &[[f64; 2]], max: bool| {
+        s.iter().map(f).fold(if max { f64::NEG_INFINITY } else { f64::INFINITY }, |a, b| if max { a.max(b) } else { a.min(b) })
+    };
     let top = Chart {
         title: "Top view: width along the finger".into(),
         x_label: "x from the mount face (mm)".into(),
@@ -53,17 +55,23 @@ pub fn render(p: &FingertipParams, mesh: &Mesh) -> Option<Vec<u8>> {
         series: vec![
             Series::line("exact nail side", xs.clone(), xs.iter().map(|&x| shape.dorsal_height_at(x)).collect(), PALETTE[0]),
             Series::line("exact pad", xs.clone(), xs.iter().map(|&x| -shape.pad_depth_at(x)).collect(), PALETTE[4]),
-            Series::points("built mesh", cuts.iter().flat_map(|c| [c.0, c.0]).collect(), cuts.iter().flat_map(|c| [ext(&|q| q[1], &c.1, true), ext(&|q| q[1], &c.1, false)]).collect(), PALETTE[2]),
             Series::points(
-                "stations",
-                at.iter().flat_map(|a| [a.0, a.0]).collect(),
-                at.iter().flat_map(|a| [a.1.nail_height_mm, -a.1.pad_depth_mm]).collect(),
-                PALETTE[1],
+                "built mesh",
+                cuts.iter().flat_map(|c| [c.0, c.0]).collect(),
+                cuts.iter().flat_map(|c| [ext(&|q| q[1], &c.1, true), ext(&|q| q[1], &c.1, false)]).collect(),
+                PALETTE[2],
             ),
+            Series::points("stations", at.iter().flat_map(|a| [a.0, a.0]).collect(), at.iter().flat_map(|a| [a.1.nail_height_mm, -a.1.pad_depth_mm]).collect(), PALETTE[1]),
         ],
         shade: vec![],
     };
-    let mut sections = Chart { title: "Sections at the stations: built mesh (points) and the station's half-ellipses (lines)".into(), x_label: "y (mm)".into(), y_label: "z (mm)".into(), series: vec![], shade: vec![] };
+    let mut sections = Chart {
+        title: "Sections at the stations: built mesh (points) and the station's half-ellipses (lines)".into(),
+        x_label: "y (mm)".into(),
+        y_label: "z (mm)".into(),
+        series: vec![],
+        shade: vec![],
+    };
     for (k, (x, s)) in at.iter().enumerate() {
         let c = PALETTE[(k + 3) % PALETTE.len()];
         let cut = slice(&design, *x + 1e-4);

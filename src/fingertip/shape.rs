@@ -1,7 +1,7 @@
 //! The analytic fingertip body: the exact surfaces that truck models and the validation reads.
 
-use crate::interp::Monotone;
 use crate::error::Result;
+use crate::interp::Monotone;
 use crate::mesh::{self, Mesh, P3};
 use crate::params::fingertip::{Body, Form};
 use truck_modeling::{builder, Matrix4, Point3, Rad, Solid as TSolid, Vector3, Wire};
@@ -59,7 +59,8 @@ impl Shape {
             Form::Stations { tip_length_mm, stations } => {
                 let at: Vec<f64> = stations.iter().map(|s| l - s.from_tip_mm).collect();
                 let f = |g: &dyn Fn(&crate::params::fingertip::Station) -> f64| Monotone::new(&at, &stations.iter().map(g).collect::<Vec<_>>());
-                let prof = Profile::Stations { x_cap: l - tip_length_mm, cap: *tip_length_mm, wh: f(&|s| s.width_mm / 2.0), zp: f(&|s| s.pad_depth_mm), zd: f(&|s| s.nail_height_mm) };
+                let prof =
+                    Profile::Stations { x_cap: l - tip_length_mm, cap: *tip_length_mm, wh: f(&|s| s.width_mm / 2.0), zp: f(&|s| s.pad_depth_mm), zd: f(&|s| s.nail_height_mm) };
                 let (_, pad_depth, dorsal) = crate::params::fingertip::envelope(stations, l, *tip_length_mm);
                 Shape { length: l, pad_depth, dorsal_height: dorsal, prof }
             }
@@ -547,12 +548,7 @@ mod tests {
     use super::*;
 
     fn body() -> Body {
-        Body {
-            length_mm: 28.0,
-            width_mm: 16.0,
-            thickness_mm: 14.0,
-            form: Form::Capsule { pad_longitudinal_radius_mm: 40.0, pad_transverse_radius_mm: 12.0, tip_radius_mm: 4.5 },
-        }
+        Body { length_mm: 28.0, width_mm: 16.0, thickness_mm: 14.0, form: Form::Capsule { pad_longitudinal_radius_mm: 40.0, pad_transverse_radius_mm: 12.0, tip_radius_mm: 4.5 } }
     }
 
     fn anatomical() -> Body {

@@ -338,7 +338,11 @@ fn uniform_cover_check(p: &MoldParams, over: &[Value], out: &mut Vec<Violation>)
                 out.push(v(
                     &p.name,
                     "a uniform cover is the nominal thickness ±10 % over each sensing area",
-                    format!("sensor[{i}]: {lo:.3}-{hi:.3} mm over {n} of 25 points, nominal {nominal} mm (allowed {:.3}-{:.3})", (1.0 - UNIFORM_TOLERANCE) * nominal, (1.0 + UNIFORM_TOLERANCE) * nominal),
+                    format!(
+                        "sensor[{i}]: {lo:.3}-{hi:.3} mm over {n} of 25 points, nominal {nominal} mm (allowed {:.3}-{:.3})",
+                        (1.0 - UNIFORM_TOLERANCE) * nominal,
+                        (1.0 + UNIFORM_TOLERANCE) * nominal
+                    ),
                 ));
             }
         }

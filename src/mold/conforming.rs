@@ -431,13 +431,22 @@ fn pour_note(name: &str, n: usize, fits: usize, mat: &serde_json::Value) -> Stri
     let g = |k: &str| mat[k].as_f64().unwrap_or(f64::NAN);
     let mixed = g("sylgard_base_g") + g("curing_agent_g");
     let batch = mat["batch"]["covers_per_batch"].as_f64().unwrap_or(1.0) as usize;
-    let pour = format!("{name}: {n} cavit{} cast{} {n} cover{} per pour ({:.2} g mixed)", if n == 1 { "y" } else { "ies" }, if n == 1 { "s" } else { "" }, if n == 1 { "" } else { "s" }, n as f64 * mixed);
+    let pour = format!(
+        "{name}: {n} cavit{} cast{} {n} cover{} per pour ({:.2} g mixed)",
+        if n == 1 { "y" } else { "ies" },
+        if n == 1 { "s" } else { "" },
+        if n == 1 { "" } else { "s" },
+        n as f64 * mixed
+    );
     if n >= batch {
         format!("{pour}: a sound batch in one pour")
     } else if batch <= fits {
         format!("{pour}; a sound batch casts {batch}: set mold.cavities = {batch} to pour it at once ({:.2} g)", batch as f64 * mixed)
     } else {
-        format!("{pour}; a sound batch casts {batch}, but at most {fits} cavities fit the bed: set mold.cavities = {fits} and pour the batch into {} molds", batch.div_ceil(fits.max(1)))
+        format!(
+            "{pour}; a sound batch casts {batch}, but at most {fits} cavities fit the bed: set mold.cavities = {fits} and pour the batch into {} molds",
+            batch.div_ceil(fits.max(1))
+        )
     }
 }
 
@@ -584,7 +593,15 @@ fn cover_part(p: &MoldParams, l: &Layout, a: &Assembled, cover_print: Solid) -> 
 
 /// The mold's `molds` manifest entry: what it is made of, the checks' measurements, and what an
 /// independent check needs to reassemble it from the written files.
-fn manifest_entry(p: &MoldParams, l: &Layout, a: &Assembled, measured: serde_json::Value, pieces: [&str; 2], mat: &serde_json::Value, pitch: f64) -> Map<String, serde_json::Value> {
+fn manifest_entry(
+    p: &MoldParams,
+    l: &Layout,
+    a: &Assembled,
+    measured: serde_json::Value,
+    pieces: [&str; 2],
+    mat: &serde_json::Value,
+    pitch: f64,
+) -> Map<String, serde_json::Value> {
     let name = p.name.as_str();
     let n = p.mold.cavities;
     let mut entry = Map::new();

@@ -22,7 +22,8 @@ pub fn developed(l: &Layout) -> (f64, f64, Vec<[f64; 2]>) {
     let ze = l.z_parting;
     let n = 2000;
     // meridian along y = 0 from x_start until the pad bottom rises to the parting plane
-    let meridian: Vec<[f64; 2]> = (0..=n).map(|i| l.x_start + (s.length - l.x_start) * i as f64 / n as f64).filter(|&x| s.pad_depth_at(x) >= -ze).map(|x| [x, -s.pad_depth_at(x)]).collect();
+    let meridian: Vec<[f64; 2]> =
+        (0..=n).map(|i| l.x_start + (s.length - l.x_start) * i as f64 / n as f64).filter(|&x| s.pad_depth_at(x) >= -ze).map(|x| [x, -s.pad_depth_at(x)]).collect();
     let length = arc(&meridian);
     let cross = |x: f64, y_to: Option<f64>| -> f64 {
         let r = s.pad_depth_at(x);

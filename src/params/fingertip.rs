@@ -353,7 +353,10 @@ fn capsule_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
         c.push(
             "body.thickness_mm",
             t,
-            format!("more than 11 times the pad depth {pad_depth:.2} mm: the dorsal side would be a needle; use at most {:.1} or a smaller pad_transverse_radius_mm", 11.0 * pad_depth),
+            format!(
+                "more than 11 times the pad depth {pad_depth:.2} mm: the dorsal side would be a needle; use at most {:.1} or a smaller pad_transverse_radius_mm",
+                11.0 * pad_depth
+            ),
         );
     }
     if rtip >= pad_depth {
@@ -391,7 +394,11 @@ fn stations_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
         ("body.tip_radius_mm", b.tip_radius_mm),
     ] {
         if let Some(v) = given {
-            c.push(path, v, "remove it: with `[[body.station]]` sections the stations give the widths, depths and curvatures (or remove the stations and tip_length_mm for the capsule form)");
+            c.push(
+                path,
+                v,
+                "remove it: with `[[body.station]]` sections the stations give the widths, depths and curvatures (or remove the stations and tip_length_mm for the capsule form)",
+            );
         }
     }
     let length = c.positive(b.length_mm, "body.length_mm", "28.0");
@@ -400,7 +407,11 @@ fn stations_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
     let tip = c.at_least_mm(b.tip_length_mm, "body.tip_length_mm", MIN_ROUNDING_MM, "too sharp a tip to round and to cast over", "7.0");
     let raw = b.station.clone().unwrap_or_default();
     if !(2..=8).contains(&raw.len()) {
-        c.push("body.station", format!("{} station(s)", raw.len()), "the anatomical body needs 2 to 8 `[[body.station]]` sections (3–5 describe a finger: at the mount, the pulp and before the tip)");
+        c.push(
+            "body.station",
+            format!("{} station(s)", raw.len()),
+            "the anatomical body needs 2 to 8 `[[body.station]]` sections (3–5 describe a finger: at the mount, the pulp and before the tip)",
+        );
     }
     let mut stations = Vec::new();
     let mut index = Vec::new();
@@ -425,20 +436,35 @@ fn stations_body(c: &mut Collector, b: &RawBody) -> Option<Body> {
         let i = index[n];
         let k = |f: &str| format!("body.station[{i}].{f}");
         if s.from_tip_mm > l + MAX_BEYOND_MOUNT_MM {
-            c.push(&k("from_tip_mm"), s.from_tip_mm, format!("more than {MAX_BEYOND_MOUNT_MM} mm beyond the mount face (body length {l} mm): a station there does not shape the body; use at most {}", l + MAX_BEYOND_MOUNT_MM));
+            c.push(
+                &k("from_tip_mm"),
+                s.from_tip_mm,
+                format!(
+                    "more than {MAX_BEYOND_MOUNT_MM} mm beyond the mount face (body length {l} mm): a station there does not shape the body; use at most {}",
+                    l + MAX_BEYOND_MOUNT_MM
+                ),
+            );
         }
         if s.from_tip_mm < tip - 1e-9 {
             c.push(&k("from_tip_mm"), s.from_tip_mm, format!("stations lie before the rounded end: at least tip_length_mm ({tip} mm) from the tip"));
         }
         if whole && n > 0 && s.from_tip_mm >= stations[n - 1].from_tip_mm {
-            c.push(&k("from_tip_mm"), s.from_tip_mm, format!("list the stations from the mount face toward the tip: must be less than the previous station's {} mm", stations[n - 1].from_tip_mm));
+            c.push(
+                &k("from_tip_mm"),
+                s.from_tip_mm,
+                format!("list the stations from the mount face toward the tip: must be less than the previous station's {} mm", stations[n - 1].from_tip_mm),
+            );
         }
         if s.width_mm / 2.0 < s.pad_depth_mm.max(s.nail_height_mm) / 4.0 || s.width_mm / 2.0 > 4.0 * s.pad_depth_mm.min(s.nail_height_mm) {
             c.push(&k("width_mm"), s.width_mm, "a section's half-width must lie within 1/4 and 4 times its pad depth and nail height: the section would be a blade");
         }
     }
     if whole && stations.first().is_some_and(|s| s.from_tip_mm < 0.5 * l) {
-        c.push("body.station[0].from_tip_mm", stations[0].from_tip_mm, format!("the first station should describe the mount end: at least half the body's length ({:.1} mm) from the tip", 0.5 * l));
+        c.push(
+            "body.station[0].from_tip_mm",
+            stations[0].from_tip_mm,
+            format!("the first station should describe the mount end: at least half the body's length ({:.1} mm) from the tip", 0.5 * l),
+        );
     }
     if c.problems.len() != before || stations.len() != raw.len() || !(2..=8).contains(&stations.len()) {
         return None;

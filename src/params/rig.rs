@@ -268,7 +268,14 @@ fn whole_layer_rule(c: &mut Collector, f: &Fields) {
                 let n = v / lh;
                 if (n - n.round()).abs() > 1e-6 {
                     let (lo, hi) = ((n.floor() * lh * 1e6).round() / 1e6, (n.ceil() * lh * 1e6).round() / 1e6);
-                    c.push(path, v, format!("is not a whole number of {lh} mm layers (print.layer_height_mm), so it would print as {lo} or {hi} mm: use {}{hi}", if lo > 0.0 { format!("{lo} or ") } else { String::new() }));
+                    c.push(
+                        path,
+                        v,
+                        format!(
+                            "is not a whole number of {lh} mm layers (print.layer_height_mm), so it would print as {lo} or {hi} mm: use {}{hi}",
+                            if lo > 0.0 { format!("{lo} or ") } else { String::new() }
+                        ),
+                    );
                 }
             }
         }

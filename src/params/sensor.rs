@@ -165,8 +165,10 @@ pub fn touch_fits(touch_s: f64, shortest_s: f64) -> bool {
     TOUCH_DRAW_MAX * touch_s < shortest_s
 }
 
-pub static PROTOCOL_SCHEMA: Schema =
-    Schema { fields: || &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s", "touch_s", "press_fraction", "top_hold_s", "final_rest_s", "cycles"], tables: &[] };
+pub static PROTOCOL_SCHEMA: Schema = Schema {
+    fields: || &["kind", "weights_g", "hold_s", "baseline_s", "logging_offset_s", "logging_jitter_s", "touch_s", "press_fraction", "top_hold_s", "final_rest_s", "cycles"],
+    tables: &[],
+};
 
 fn num(c: &mut Collector, t: &Option<Table>, table: &str, key: &str, default: f64, lo: f64, hi: f64) -> Option<f64> {
     let path = format!("{table}.{key}");
@@ -332,7 +334,14 @@ impl ProtocolParams {
         if let (Some(d), Some(h), Some(b)) = (touch, hold, base) {
             let shortest = h.min(b).min(top.unwrap_or(h)).min(final_rest.unwrap_or(b));
             if !touch_fits(d, shortest) {
-                c.push("touch_s", d, format!("a touch draws up to {TOUCH_DRAW_MAX} × touch_s, which must stay under the shortest hold or rest ({shortest} s): use touch_s < {:.2}", shortest / TOUCH_DRAW_MAX));
+                c.push(
+                    "touch_s",
+                    d,
+                    format!(
+                        "a touch draws up to {TOUCH_DRAW_MAX} × touch_s, which must stay under the shortest hold or rest ({shortest} s): use touch_s < {:.2}",
+                        shortest / TOUCH_DRAW_MAX
+                    ),
+                );
             }
         }
         let v = (|| {

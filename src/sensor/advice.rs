@@ -22,8 +22,8 @@
 //! ambiguous.
 
 use super::analyze::Report;
-pub use super::diagnose::{Advice, Candidate};
 use super::diagnose::Diagnosis;
+pub use super::diagnose::{Advice, Candidate};
 use super::recording::Recording;
 use super::sim;
 use crate::params::sensor::{ProtocolParams, SensorParams};
@@ -102,7 +102,9 @@ pub fn advise(d: &Diagnosis, report: &Report, rec: &Recording) -> (Vec<Advice>, 
 fn simulable(effect: &str, params: &serde_json::Value) -> bool {
     match effect {
         "creep" | "hysteresis" | "baseline_drift" | "saturation" => true,
-        "second_time_constant" => params.get("drive").and_then(|v| v.as_str()) != Some(super::catalogue::second_time_constant::Drive::Size.label()) && params.get("fraction").is_some(),
+        "second_time_constant" => {
+            params.get("drive").and_then(|v| v.as_str()) != Some(super::catalogue::second_time_constant::Drive::Size.label()) && params.get("fraction").is_some()
+        }
         _ => false,
     }
 }

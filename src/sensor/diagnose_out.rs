@@ -143,7 +143,13 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
                 .enumerate()
                 .map(|(j, (name, c))| Series::line(&contribution_label(d, name), p.time_s.clone(), c.clone(), PALETTE[(j + 2) % PALETTE.len()]))
                 .collect();
-            charts.push(Chart { title: "CONTRIBUTION OF EACH TERM TO THE IMPROVED MODEL".into(), x_label: "TIME S".into(), y_label: d.unit.clone(), series, shade: p.windows.clone() });
+            charts.push(Chart {
+                title: "CONTRIBUTION OF EACH TERM TO THE IMPROVED MODEL".into(),
+                x_label: "TIME S".into(),
+                y_label: d.unit.clone(),
+                series,
+                shade: p.windows.clone(),
+            });
         }
         let name = format!("plots/{}.png", p.stem);
         st.add(dir.join(&name), plot::render(&charts, 1, 1100, 360));
@@ -160,7 +166,14 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
         html += "<h2>Names the recording cannot separate</h2>\n<p>Each finding's term was dropped and every other catalogue effect put in its place. An alternative explains the same residual held out, and the named model does not predict the held-out units better than it by a paired z of 2.</p>\n<table><tr><th>finding</th><th>its held-out RMSE</th><th>alternative</th><th>held-out RMSE in its place</th><th>paired z, named over it</th></tr>\n";
         for f in &d.findings {
             for a in &f.alternatives {
-                html += &format!("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td></tr>\n", f.effect, sig4(f.heldout_rmse_after), a.effect, sig4(a.heldout_rmse), a.z_named_over_this);
+                html += &format!(
+                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td></tr>\n",
+                    f.effect,
+                    sig4(f.heldout_rmse_after),
+                    a.effect,
+                    sig4(a.heldout_rmse),
+                    a.z_named_over_this
+                );
             }
         }
         html += "</table>\n";

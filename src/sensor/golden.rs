@@ -58,7 +58,16 @@ mod tests {
         let br = super::golden(|x| (x - 0.3).powi(2), -1.0, 2.0, 40, 0.0);
         assert!((0.5 * (br.a + br.b) - 0.3).abs() < 1e-6 && br.b - br.a < 1e-6);
         let mut n = 0;
-        let early = super::golden(|x| { n += 1; (x - 0.3).powi(2) }, -1.0, 2.0, 40, 0.1);
+        let early = super::golden(
+            |x| {
+                n += 1;
+                (x - 0.3).powi(2)
+            },
+            -1.0,
+            2.0,
+            40,
+            0.1,
+        );
         assert!(early.b - early.a < 0.1 && n < 12, "{n}");
         assert!((early.best().0 - 0.3).abs() < 0.1);
     }

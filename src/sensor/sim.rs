@@ -140,8 +140,11 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
     let logs: Vec<f64> = events.iter().map(|ev| ev.0 + proto.logging_offset_s + proto.logging_jitter_s * rng.normal()).collect();
     let spike_signs: Vec<f64> = events.iter().map(|_| if rng.uniform() < 0.5 { -1.0 } else { 1.0 }).collect();
     // nuisances (each draws only when it is on, so the sequence without them is unchanged)
-    let touches: Vec<(f64, f64)> =
-        if proto.touch_s > 0.0 { events.iter().map(|_| (proto.touch_s * (crate::params::sensor::TOUCH_DRAW_MAX - 1.0 + rng.uniform()), proto.press_fraction * (0.5 + rng.uniform()))).collect() } else { vec![] };
+    let touches: Vec<(f64, f64)> = if proto.touch_s > 0.0 {
+        events.iter().map(|_| (proto.touch_s * (crate::params::sensor::TOUCH_DRAW_MAX - 1.0 + rng.uniform()), proto.press_fraction * (0.5 + rng.uniform()))).collect()
+    } else {
+        vec![]
+    };
     let nu = &p0.nuisance;
     let mut scaled = p0.clone();
     if nu.gain_jitter > 0.0 {

@@ -76,7 +76,14 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
             let explains = s.heldout_rmse < s_wo.heldout_rmse && on_clip(&s_wo, &s) >= MIN_Z;
             let z_sep = on_clip(&s, cur_score);
             if explains && z_sep < Z_SEPARATE {
-                alts.push(Alternative { effect: e.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep, params: term_params(ctx.d, &c, &x, e, ctx.hat), unit_sd_per_sample: unit_sd_per_sample(cur_score, &s), first_order: first_order_part(ctx.d, &c, &x, ctx.trials) });
+                alts.push(Alternative {
+                    effect: e.name(),
+                    heldout_rmse: s.heldout_rmse,
+                    z_named_over_this: z_sep,
+                    params: term_params(ctx.d, &c, &x, e, ctx.hat),
+                    unit_sd_per_sample: unit_sd_per_sample(cur_score, &s),
+                    first_order: first_order_part(ctx.d, &c, &x, ctx.trials),
+                });
             }
         }
         // a warm-up drift shared by the trials against the same decay fitted per trial (a
@@ -90,7 +97,14 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
                 let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
                 let z_sep = paired_z(&s.units, &cur_score.units);
                 if explains && z_sep < Z_SEPARATE {
-                    alts.push(Alternative { effect: Effect::RestRelaxation.name(), heldout_rmse: s.heldout_rmse, z_named_over_this: z_sep, params: term_params(ctx.d, &c, &x, Effect::RestRelaxation, ctx.hat), unit_sd_per_sample: unit_sd_per_sample(cur_score, &s), first_order: first_order_part(ctx.d, &c, &x, ctx.trials) });
+                    alts.push(Alternative {
+                        effect: Effect::RestRelaxation.name(),
+                        heldout_rmse: s.heldout_rmse,
+                        z_named_over_this: z_sep,
+                        params: term_params(ctx.d, &c, &x, Effect::RestRelaxation, ctx.hat),
+                        unit_sd_per_sample: unit_sd_per_sample(cur_score, &s),
+                        first_order: first_order_part(ctx.d, &c, &x, ctx.trials),
+                    });
                 }
             }
         }

@@ -26,7 +26,8 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
                 t0 = st.t_log + r.end_after_log_s;
                 input = LoadIn { ramp_s: r.duration_s, smooth: r.smooth, curve: 0.0 };
                 if let Some(q) = q {
-                    let prev_end_s = prep.steps[ri].iter().filter(|p| p.t_log < st.t_log).map(|p| p.t_log + r.end_after_log_s).fold(series.t.first().copied().unwrap_or(0.0), f64::max);
+                    let prev_end_s =
+                        prep.steps[ri].iter().filter(|p| p.t_log < st.t_log).map(|p| p.t_log + r.end_after_log_s).fold(series.t.first().copied().unwrap_or(0.0), f64::max);
                     let next_start_s = prep.steps[ri].iter().filter(|p| p.t_log > st.t_log).map(|p| p.t_log + r.end_after_log_s - r.duration_s).fold(f64::INFINITY, f64::min);
                     (t0, input) = step_ramp(series, t0, (f.trials[q].v0, f.k, f.tau_s), r, (prev_end_s, next_start_s));
                 }
@@ -94,7 +95,6 @@ pub(super) fn preload_search(recs: &[Recording], opts: &Options, sb: &SimBaselin
     let s = score_at(best)?;
     Some((given, best, s))
 }
-
 
 /// The finding of a simulator preload corrected before any term was sought: the preload it was
 /// given, the one that fits (g), and the baseline's scores at both.

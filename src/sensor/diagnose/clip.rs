@@ -50,7 +50,8 @@ pub(super) fn clipped_segments(trials: &[Trial], clip: f64, rail: bool) -> ClipS
     let unit = |&(k, s): &(usize, usize)| if one { (k, s) } else { (k, s + 1) };
     let units = if rail {
         let rises = into.iter().filter(|&&(k, s)| !starts_at(&trials[k], s, clip)).map(unit).collect();
-        let falls = from.iter().filter(|&&(k, s)| !ends_at(&trials[k], (trials[k].segs[s].t0, trials[k].segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY)), clip)).map(unit).collect();
+        let falls =
+            from.iter().filter(|&&(k, s)| !ends_at(&trials[k], (trials[k].segs[s].t0, trials[k].segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY)), clip)).map(unit).collect();
         vec![rises, falls]
     } else {
         vec![into.iter().map(unit).collect()]

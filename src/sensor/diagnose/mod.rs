@@ -32,9 +32,9 @@
 mod alternatives;
 mod baseline;
 mod clip;
+mod first_order;
 #[cfg(test)]
 mod fixture;
-mod first_order;
 mod gate;
 mod heldout;
 mod input;
@@ -140,12 +140,7 @@ pub fn refitted_baseline(recs: &[Recording], opts: &Options) -> Option<Diagnosis
 /// would exclude are not spikes, decided before any term is selected.
 enum Outcome {
     Done(Box<Diagnosis>),
-    SpikesRejected {
-        windows: Vec<Window>,
-        before: f64,
-        after: f64,
-        unit: String,
-    },
+    SpikesRejected { windows: Vec<Window>, before: f64, after: f64, unit: String },
 }
 
 /// Handling spikes are excluded only when held-out evidence agrees. Excluding true spikes lowers

@@ -131,7 +131,20 @@ pub(super) struct FixedStep {
 impl Config {
     /// The paper's model: first-order steps with free time constants, no term.
     pub(super) fn first_order() -> Config {
-        Config { tau_free: true, effects: vec![], tau2: 1.0, drive: Drive::Change, clip: None, tau_fixed: vec![], restart: vec![], relax: None, gains: false, rest_tau: None, drift_tau: None, clip_rail: false }
+        Config {
+            tau_free: true,
+            effects: vec![],
+            tau2: 1.0,
+            drive: Drive::Change,
+            clip: None,
+            tau_fixed: vec![],
+            restart: vec![],
+            relax: None,
+            gains: false,
+            rest_tau: None,
+            drift_tau: None,
+            clip_rail: false,
+        }
     }
     pub(super) fn fixed(&self, i: usize, s: usize) -> Option<&FixedStep> {
         self.tau_fixed.iter().find(|x| x.at == (i, s))

@@ -272,7 +272,16 @@ pub struct Advice {
 /// unexplained, the final refit and its predictions (`refit`), the units' errors, the improved
 /// model's first-order part, and the spectrum's finding named by its fitted shape.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn diagnosis(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, b: Built, ch: Chosen, (clean, located): (&Score, Vec<LocatedWindow>), piled: Option<f64>, refit_always: bool) -> Diagnosis {
+pub(super) fn diagnosis(
+    recs: &[Recording],
+    opts: &Options,
+    sim: Option<&SimBaseline>,
+    b: Built,
+    ch: Chosen,
+    (clean, located): (&Score, Vec<LocatedWindow>),
+    piled: Option<f64>,
+    refit_always: bool,
+) -> Diagnosis {
     let Built { report, trials, d, hat: hat0, base_cfg, base_eval, base_fit, base, xb, .. } = b;
     let Chosen { cfg: cur, score: cur_score, x: cur_x, hat, mut findings, decisions, mut nuisances, spectrum_exact } = ch;
     // a clip reported on its plateau alone is one whose samples pile up (`piled`), never a rail's

@@ -98,7 +98,6 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
     Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, round0_exact }
 }
 
-
 /// The z of the accepted candidate `e` in round `round`.
 pub(super) fn z_of(decisions: &[Decision], round: usize, e: Effect) -> f64 {
     decisions.iter().rev().find(|dc| dc.step == round && dc.candidate == e.name()).map(|dc| dc.z).unwrap_or(f64::NAN)
@@ -148,7 +147,13 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
 /// is dropped only when the others stand without it: the model without it must itself pass the
 /// rule against `floor` (or be the baseline); terms that only explain the data together are kept
 /// together.
-fn backward((cur, cur_score, cur_x): (&mut Config, &mut Score, &mut Vec<f64>), floor: &Score, hat: &Hat, ctx: &Ctx, (findings, decisions, nuisances): (&mut Vec<Finding>, &mut Vec<Decision>, &mut Vec<NuisanceTerm>)) {
+fn backward(
+    (cur, cur_score, cur_x): (&mut Config, &mut Score, &mut Vec<f64>),
+    floor: &Score,
+    hat: &Hat,
+    ctx: &Ctx,
+    (findings, decisions, nuisances): (&mut Vec<Finding>, &mut Vec<Decision>, &mut Vec<NuisanceTerm>),
+) {
     let (d, trials, clip_steps) = (ctx.d, ctx.trials, ctx.clip_steps);
     loop {
         let mut worst: Option<(usize, Config, Score, Vec<f64>, f64)> = None;

@@ -4,7 +4,6 @@
 
 use super::*;
 
-
 /// The exact form of a relaxation (creep, or one second time constant with its drive) that
 /// predicted the held-out data best in the round the spectrum entered.
 #[derive(Debug, Clone)]

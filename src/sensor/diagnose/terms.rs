@@ -176,7 +176,11 @@ mod tests {
                 assert!(TAU2_GRID.iter().any(|g| (g - m).abs() < 1e-9 * g), "τ2 {} off the grid", c.tau2);
             }
             let back = without(&c, idx);
-            assert_eq!((&back.effects, back.clip, &back.tau_fixed, &back.restart, back.rest_tau, back.drift_tau), (&base.effects, base.clip, &base.tau_fixed, &base.restart, base.rest_tau, base.drift_tau), "{e:?}");
+            assert_eq!(
+                (&back.effects, back.clip, &back.tau_fixed, &back.restart, back.rest_tau, back.drift_tau),
+                (&base.effects, base.clip, &base.tau_fixed, &base.restart, base.rest_tau, base.drift_tau),
+                "{e:?}"
+            );
         }
     }
 }
