@@ -86,12 +86,21 @@ pub fn summary(d: &Diagnosis) -> Vec<String> {
     out
 }
 
+/// Stages every file of a diagnosis: `diagnosis.json`, the advice's protocols and plots, each
+/// recording's predictions and plot, and `report.html`.
 pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     let mut st = Staged::whole_run();
     let mut json = serde_json::to_string_pretty(d).expect("diagnosis serialises");
     json.push('\n');
     st.add(dir.join("diagnosis.json"), json.into_bytes());
-    let mut imgs = Vec::new();
+    let advice_html = stage_advice(d, dir, &mut st);
+    let imgs = stage_predictions(d, dir, &mut st);
+    st.add(dir.join("report.html"), report_html(d, &advice_html, &imgs).into_bytes());
+    st
+}
+
+/// The advised protocols and their plots; returns the report's advice section.
+fn stage_advice(d: &Diagnosis, dir: &Path, st: &mut Staged) -> String {
     let mut advice_html = String::new();
     for a in &d.advice {
         st.add(dir.join(&a.protocol_file), a.protocol_toml.clone().into_bytes());
@@ -102,6 +111,12 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
         }
         advice_html += &format!("</table>\n<p><img src=\"{}\" width=\"1100\"></p>\n", a.plot);
     }
+    advice_html
+}
+
+/// Each recording's predictions (CSV) and plot; returns the plots' paths.
+fn stage_predictions(d: &Diagnosis, dir: &Path, st: &mut Staged) -> Vec<String> {
+    let mut imgs = Vec::new();
     for p in &d.predictions {
         let mut csv = String::with_capacity(p.time_s.len() * 40);
         if p.stride > 1 {
@@ -155,6 +170,12 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
         st.add(dir.join(&name), plot::render(&charts, 1, 1100, 360));
         imgs.push(name);
     }
+    imgs
+}
+
+/// `report.html`: the summary, the names the recording cannot separate, the advice, where the
+/// baseline fails, the decisions and the plots.
+fn report_html(d: &Diagnosis, advice_html: &str, imgs: &[String]) -> String {
     let esc = |s: &str| s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
     let mut html = String::from("<!doctype html><html><head><meta charset=\"utf-8\"><title>tipforge diagnosis</title><style>body{font-family:sans-serif;max-width:1150px;margin:2em auto}td,th{border:1px solid #ccc;padding:4px 8px}table{border-collapse:collapse}</style></head><body>\n<h1>Diagnosis</h1>\n");
     html += &format!("<p>Recordings: {}</p>\n<ul>\n", esc(&d.recordings.join(", ")));
@@ -180,7 +201,7 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
     }
     if !advice_html.is_empty() || !d.advice_notes.is_empty() {
         html += "<h2>What to record next</h2>\n<p>Both names were simulated with the recording's twin (the named term, or the alternative fitted in its place), noise-free, on the recording's own protocol and on protocol changes; the separation is the paired z the held-out test between the two names is expected to reach (each unit's noise as this recording showed it between them, at least the white-noise floor), scaled to the z the recording itself reached.</p>\n";
-        html += &advice_html;
+        html += advice_html;
         for n in &d.advice_notes {
             html += &format!("<p>{}</p>\n", esc(n));
         }
@@ -203,12 +224,11 @@ pub fn stage(d: &Diagnosis, dir: &Path) -> Staged {
         );
     }
     html += "</table>\n<h2>Recordings, models and residuals</h2>\n<p>Shaded: windows where the model failed or a finding applies.</p>\n";
-    for i in &imgs {
+    for i in imgs {
         html += &format!("<p><img src=\"{i}\" width=\"1100\"></p>\n");
     }
     html += "</body></html>\n";
-    st.add(dir.join("report.html"), html.into_bytes());
-    st
+    html
 }
 
 /// The advice's plot: both names' predictions on the advised protocol, and their difference.
