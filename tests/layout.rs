@@ -111,3 +111,42 @@ fn no_function_is_over_120_lines() {
     // the measure can fail: a 30-line bound finds the long ones
     assert!(long_functions(30).len() > 10);
 }
+
+/// The diagnosis's shared modules (ARCHITECTURE.md) call no stage: no function a stage file defines
+/// is called in them (comments and tests left out).
+#[test]
+fn the_diagnosiss_shared_modules_call_no_stage() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/sensor/diagnose");
+    let code = |name: &str| -> String {
+        let text = std::fs::read_to_string(dir.join(format!("{name}.rs"))).unwrap();
+        let text = text.split("#[cfg(test)]").next().unwrap_or("").to_string();
+        text.lines().map(|l| l.split("//").next().unwrap_or("")).collect::<Vec<_>>().join("\n")
+    };
+    let shared = ["model", "first_order", "input", "normal", "heldout", "gate", "parameters"];
+    let stages = ["baseline", "locate", "select", "nuisance", "terms", "clip", "alternatives", "spectrum", "refit", "report"];
+    let mut defined = Vec::new();
+    for s in stages {
+        for line in code(s).lines() {
+            let t = line.trim_start();
+            for head in ["pub(super) fn ", "fn ", "pub fn "] {
+                if let Some(rest) = t.strip_prefix(head) {
+                    let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                    defined.push((s, name));
+                }
+            }
+        }
+    }
+    assert!(defined.len() > 40, "the stages' functions were found: {}", defined.len());
+    let mut calls = Vec::new();
+    for m in shared {
+        let text = code(m);
+        for (s, f) in &defined {
+            let call = format!("{f}(");
+            let found = text.match_indices(&call).any(|(i, _)| !text[..i].ends_with(|c: char| c.is_alphanumeric() || c == '_' || c == '.'));
+            if found {
+                calls.push(format!("{m}.rs calls {s}::{f}"));
+            }
+        }
+    }
+    assert!(calls.is_empty(), "a shared module calls a stage:\n{}", calls.join("\n"));
+}
