@@ -87,15 +87,22 @@ pub(super) struct Config {
     pub(super) clip_rail: bool,
 }
 
-/// The relaxation spectrum's shape: kernels on a log grid of τ, driven by the load as applied (a
-/// ramp of `ramp_s` ending `end_s` after the logged change), amplitudes penalised by `lambda`
-/// (relative to the block's mean column energy; None: chosen by inner cross-validation wherever
-/// the model is solved).
+/// What drives the relaxation spectrum's kernels: the load as the spectrum applies it, a ramp of
+/// `ramp_s` ending `end_s` after each logged change (0, 0: at the log), or each step's own ramp as
+/// the baseline applies it (an actuator's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum KernelDrive {
+    Ramp { ramp_s: f64, end_s: f64 },
+    StepsOwn,
+}
+
+/// The relaxation spectrum's shape: kernels on a log grid of τ, driven by the load as applied
+/// (`drive`), amplitudes penalised by `lambda` (relative to the block's mean column energy; None:
+/// chosen by inner cross-validation wherever the model is solved).
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Relax {
     pub(super) taus: Vec<f64>,
-    pub(super) ramp_s: f64,
-    pub(super) end_s: f64,
+    pub(super) drive: KernelDrive,
     pub(super) lambda: Option<f64>,
     /// With the steps' own first-order decay among the columns ([`OWN_TAU_COLS`]).
     pub(super) own_tau: bool,
@@ -105,8 +112,6 @@ pub(super) struct Relax {
     /// One more kernel set per trial, from its first sample: the relaxation the sample brings
     /// from before the recording (how long it rested differs between trials).
     pub(super) trials: usize,
-    /// Driven by each step's own ramp (the baseline's, an actuator's), not by `ramp_s`/`end_s`.
-    pub(super) by_steps: bool,
 }
 
 impl Relax {
@@ -352,8 +357,12 @@ pub(super) fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx
     }
     for (q, sg) in tr.segs.iter().enumerate() {
         // the load as the baseline applies it (an actuator's ramps), else the spectrum's own ramp
-        let ramped = rx.by_steps && sg.input.ramp_s > 0.0;
-        let (end, ramp_s) = if ramped { (sg.t0, sg.input.ramp_s) } else { (sg.t_log + rx.end_s, rx.ramp_s) };
+        let ramped = rx.drive == KernelDrive::StepsOwn && sg.input.ramp_s > 0.0;
+        let (end, ramp_s) = match rx.drive {
+            _ if ramped => (sg.t0, sg.input.ramp_s),
+            KernelDrive::Ramp { ramp_s, end_s } => (sg.t_log + end_s, ramp_s),
+            KernelDrive::StepsOwn => (sg.t_log, 0.0),
+        };
         if t <= end - ramp_s {
             break;
         }

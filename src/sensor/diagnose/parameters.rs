@@ -47,11 +47,11 @@ pub(super) fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Ha
                 "first_order_share_after_loading": if rx.own_tau { at(k + rx.sets() * n) } else { 0.0 }, "first_order_share_after_unloading": if rx.own_tau { at(k + rx.sets() * n + 1) } else { 0.0 },
             });
             // the spectrum's own ramp, or (an actuator's) the steps' own ramps it is driven by
-            if rx.by_steps {
-                v["driven_by_the_steps_ramps"] = serde_json::json!(true);
+            if let KernelDrive::Ramp { ramp_s, end_s } = rx.drive {
+                v["ramp_s"] = serde_json::json!(ramp_s);
+                v["ramp_end_after_logged_change_s"] = serde_json::json!(end_s);
             } else {
-                v["ramp_s"] = serde_json::json!(rx.ramp_s);
-                v["ramp_end_after_logged_change_s"] = serde_json::json!(rx.end_s);
+                v["driven_by_the_steps_ramps"] = serde_json::json!(true);
             }
             v
         }

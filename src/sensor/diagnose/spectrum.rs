@@ -102,14 +102,14 @@ pub(super) fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score
     }
     // then the ramp refined around the pick: half a grid step either way in duration and end
     let (mut c, mut best_cv) = pick?;
-    if let Some(rx) = c.relax.clone().filter(|rx| !rx.by_steps) {
+    if let Some((rx, KernelDrive::Ramp { ramp_s: r0, end_s: e0 })) = c.relax.clone().map(|rx| (rx.clone(), rx.drive)) {
         let (dr, de) = if actuator { (1.0, 0.5) } else { (0.15, 0.15) };
-        let around: Vec<Config> = [(rx.ramp_s - dr, rx.end_s), (rx.ramp_s + dr, rx.end_s), (rx.ramp_s, rx.end_s - de), (rx.ramp_s, rx.end_s + de)]
+        let around: Vec<Config> = [(r0 - dr, e0), (r0 + dr, e0), (r0, e0 - de), (r0, e0 + de)]
             .into_iter()
             .filter(|(ramp_s, _)| *ramp_s >= 0.0)
             .map(|(ramp_s, end_s)| {
                 let mut cand = c.clone();
-                cand.relax = Some(Relax { ramp_s, end_s, ..rx.clone() });
+                cand.relax = Some(Relax { drive: KernelDrive::Ramp { ramp_s, end_s }, ..rx.clone() });
                 cand
             })
             .collect();
@@ -213,11 +213,11 @@ pub(super) fn relax_candidates(trials: &[Trial], actuator: bool) -> Vec<Relax> {
     // a recording scored in forward blocks has one change of a kind per hold: a set per kind would
     // be estimated from the hold it forecasts, so loading and unloading share one
     let shared = hold_blocks(trials) > 0;
-    let by_steps = ramped.then_some((0.0, 0.0, true));
+    let by_steps = ramped.then_some(KernelDrive::StepsOwn);
     shapes
-        .map(|(r, e)| (r, e, false))
+        .map(|(ramp_s, end_s)| KernelDrive::Ramp { ramp_s, end_s })
         .chain(by_steps)
-        .flat_map(|(ramp_s, end_s, by_steps)| [false, true].map(|own_tau| Relax { taus: taus.clone(), ramp_s, end_s, lambda: None, own_tau, shared, trials: n_trials, by_steps }))
+        .flat_map(|drive| [false, true].map(|own_tau| Relax { taus: taus.clone(), drive, lambda: None, own_tau, shared, trials: n_trials }))
         .collect()
 }
 
@@ -317,7 +317,8 @@ mod tests {
             assert!(taus[0] <= 0.2 && *taus.last().unwrap() >= 0.4 * span && *taus.last().unwrap() <= 0.5 * span + 1e-9, "{taus:?}");
             let ratios: Vec<f64> = taus.windows(2).map(|w| w[1] / w[0]).collect();
             assert!(ratios.iter().all(|r| (r / ratios[0] - 1.0).abs() < 1e-6), "not log-spaced: {ratios:?}");
-            assert_eq!(cands.iter().map(|c| c.ramp_s).fold(0.0, f64::max), max_ramp);
+            let ramp = |c: &Relax| if let KernelDrive::Ramp { ramp_s, .. } = c.drive { ramp_s } else { 0.0 };
+            assert_eq!(cands.iter().map(ramp).fold(0.0, f64::max), max_ramp);
         }
         let thin = thinned(&b.trials, 20_000);
         assert!(thin.iter().map(|t| t.t.len()).sum::<usize>() <= 20_000);
