@@ -443,23 +443,3 @@ fn fit_on_an_actuators_ramps_recovers_the_first_order_time_constants() {
         assert!((f.tau_s - tau).abs() < 0.15 * tau, "{} g: τ {} s, truth {tau} s", st.after, f.tau_s);
     }
 }
-
-/// Issue 15, item 3: creep that carries over between steps (superposed over the load history:
-/// every change's own log-time creep keeps going) is named creep, in its superposed form, and
-/// alone. Before, the restarting creep term gained nothing and a second relaxation with
-/// hysteresis or drift took its place (family A's "creep superposed" variation: 0.00). Seeds
-/// 96 000–96 200, not looked at before (the form was checked on CLI cases 20 100–20 300).
-#[test]
-fn creep_that_carries_over_is_named_creep() {
-    for seed in [96_000u64, 96_100, 96_200] {
-        let set = |s: &mut SensorParams| {
-            s.effects.creep_per_decade = 0.0027;
-            s.effects.creep_superposed = true;
-        };
-        let d = diagnose(&case(seed, set), &Default::default()).unwrap();
-        let found: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
-        assert_eq!(found, vec!["creep"], "seed {seed}");
-        assert_eq!(d.findings[0].term.params.get("superposed").and_then(|v| v.as_bool()), Some(true), "seed {seed}");
-        assert!(d.final_.heldout_rmse < 0.6 * d.baseline.heldout_rmse, "seed {seed}");
-    }
-}

@@ -77,19 +77,6 @@ mod tests {
         assert!(after.abs() < 1e-3 && after > 0.0, "{after}");
     }
 
-    /// Superposed, each change's creep keeps going: after the load is removed the loading's creep
-    /// still grows and the unloading's (of the opposite sign, from its own start) takes it back
-    /// slowly — the carry-over the restarting form relaxes away within the new step's τ.
-    #[test]
-    fn superposed_creep_carries_over_after_the_load_is_removed() {
-        let steps = super::super::UpDown { t0: [10.0, 30.0], top: 1.0, after: 0.0 };
-        assert!((superposed_column(&steps, 0, 19.0) - 1.0).abs() < 1e-12);
-        let after = superposed_column(&steps, 1, 40.0);
-        let want = (1.0f64 + 30.0).log10() - (1.0f64 + 10.0).log10();
-        assert!((after - want).abs() < 1e-12 && after > 0.4, "{after}");
-        assert!(column(&steps, 1, 40.0) < 1e-3);
-    }
-
     #[test]
     fn signature_flags_a_log_trend_and_not_noise() {
         let t: Vec<f64> = (0..2000).map(|i| 10.0 + i as f64 * 0.01).collect();
