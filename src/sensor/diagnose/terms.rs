@@ -73,16 +73,6 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
                 })
                 .collect()
         }
-        // creep restarting at every step, or superposed over the load history (it carries over)
-        Effect::Creep => [false, true]
-            .into_iter()
-            .map(|superposed| {
-                let mut c = cur.clone();
-                c.effects.push(e);
-                c.creep_superposed = superposed;
-                c
-            })
-            .collect(),
         Effect::Saturation => {
             let mut c = cur.clone();
             c.effects.push(e);
@@ -158,9 +148,6 @@ pub(super) fn without(cur: &Config, idx: usize) -> Config {
     }
     if e == Effect::BaselineDrift {
         c.drift_tau = None;
-    }
-    if e == Effect::Creep {
-        c.creep_superposed = false;
     }
     c
 }
