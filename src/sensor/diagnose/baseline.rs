@@ -136,7 +136,7 @@ pub(super) const MIN_RAMP_GAIN: f64 = 0.02;
 pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
     use rayon::prelude::*;
 
-    let actuator = !opts.pre.handling || recs.iter().any(|r| r.meta.all.get("loading").is_some_and(|l| l.trim() == "actuator"));
+    let actuator = recs.iter().any(|r| !crate::sensor::preprocess::by_hand(r, &opts.pre));
     if !actuator || opts.pre.ramp.is_some() {
         return opts.clone();
     }

@@ -37,9 +37,6 @@ pub(super) fn built(recs: &[Recording]) -> Built {
 
 /// The context the selection's stages take, on a built baseline.
 pub(super) fn ctx<'a>(b: &'a Built, clip_steps: &'a ClipSteps, hat: &'a Hat) -> Ctx<'a> {
-    let med_tau = {
-        let mut t: Vec<f64> = b.trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
-        crate::sensor::preprocess::median(&mut t)
-    };
+    let med_tau = median_tau(&b.trials);
     Ctx { d: &b.d, trials: &b.trials, hat, clip: clip_level(&b.trials), clip_steps, med_tau }
 }

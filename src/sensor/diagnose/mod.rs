@@ -65,7 +65,7 @@ use model::*;
 use nalgebra::{DMatrix, DVector};
 use normal::*;
 use parameters::*;
-use select::Chosen;
+use select::Selected;
 use serde::Serialize;
 use spectrum::*;
 use terms::*;
@@ -195,7 +195,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     let located = located_windows(&b.d, &b.trials, &xc, &b.base_cfg, &b.hat, piled, &b.report);
     let clip_steps = ClipSteps::of(&b.trials, clip, clip.is_some() && piled.is_none());
     // 4. name the physics left out: terms selected held out, alternatives, the relaxation spectrum
-    let actuator = !opts.pre.handling || recs.iter().any(|r| r.meta.all.get("loading").is_some_and(|l| l.trim() == "actuator"));
+    let actuator = recs.iter().any(|r| !crate::sensor::preprocess::by_hand(r, &opts.pre));
     let chosen = select::choose(&b, (&clean, &xc), clip, &clip_steps, actuator);
     // 5. model it, refit, and report
     Some(Outcome::Done(Box::new(report::diagnosis(recs, opts, sim, b, chosen, (&clean, located), piled, refit_always))))

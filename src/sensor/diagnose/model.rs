@@ -124,6 +124,12 @@ impl Relax {
     }
 }
 
+/// The median of the steps' part-1 time constants (the second relaxation's grid is relative to it).
+pub(super) fn median_tau(trials: &[Trial]) -> f64 {
+    let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
+    crate::sensor::preprocess::median(&mut t)
+}
+
 /// A step whose time constant and onset are set, not taken from its own part-1 fit.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct FixedStep {

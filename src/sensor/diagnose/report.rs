@@ -277,13 +277,13 @@ pub(super) fn diagnosis(
     opts: &Options,
     sim: Option<&SimBaseline>,
     b: Built,
-    ch: Chosen,
+    ch: Selected,
     (clean, located): (&Score, Vec<LocatedWindow>),
     piled: Option<f64>,
     refit_always: bool,
 ) -> Diagnosis {
     let Built { report, trials, d, hat: hat0, base_cfg, base_eval, base_fit, base, xb, .. } = b;
-    let Chosen { cfg: cur, score: cur_score, x: cur_x, hat, mut findings, decisions, mut nuisances, spectrum_exact } = ch;
+    let Selected { cfg: cur, score: cur_score, x: cur_x, hat, mut findings, decisions, mut nuisances, exact: spectrum_exact } = ch;
     // a clip reported on its plateau alone is one whose samples pile up (`piled`), never a rail's
     findings.extend(reported_only(&trials, &cur, &cur_score, piled, &report, (&base, clean)));
     let unexplained = unexplained(&d, &trials, &cur_x, &cur, &hat, &report.unit);

@@ -14,9 +14,10 @@ pub(super) struct Selected {
     pub(super) findings: Vec<Finding>,
     pub(super) decisions: Vec<Decision>,
     pub(super) nuisances: Vec<NuisanceTerm>,
-    /// The exact relaxation form (creep, one second time constant) that predicted best on the
-    /// baseline, in the first round.
-    pub(super) round0_exact: Option<Exact>,
+    /// An exact relaxation form (creep, one second time constant): from `select`, the one that
+    /// predicted best on the baseline in the first round; from `choose`, the one the relaxation
+    /// spectrum replaced, if it did (the spectrum's finding is named from its shape and it).
+    pub(super) exact: Option<Exact>,
 }
 
 /// Forward and backward selection from the baseline `base_cfg` (scored `clean`, solved `xc`). The
@@ -37,13 +38,13 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
     }
     // what a term is judged against when the others must stand without it
     let floor = cur_score.clone();
-    let mut round0_exact: Option<Exact> = None;
+    let mut exact0: Option<Exact> = None;
     let mut findings = Vec::new();
     let mut decisions = Vec::new();
     for round in 0..=CATALOGUE.len() {
         let (best, exact) = forward_round(round, (&cur, &cur_score), &hat, ctx, &mut decisions);
         if round == 0 {
-            round0_exact = exact;
+            exact0 = exact;
         }
         let Some((e, c, s, x)) = best else { break };
         if let Some(dc) = decisions.iter_mut().rev().find(|dc| dc.step == round && dc.candidate == e.name()) {
@@ -95,7 +96,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
     }
     // backward check: every kept term must still pass given all the others
     backward((&mut cur, &mut cur_score, &mut cur_x), &floor, &hat, ctx, (&mut findings, &mut decisions, &mut nuisances));
-    Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, round0_exact }
+    Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, exact: exact0 }
 }
 
 /// The z of the accepted candidate `e` in round `round`.
@@ -187,30 +188,13 @@ fn backward(
     }
 }
 
-/// The model the selection chose, its alternatives and the spectrum's exact rival, with every
-/// term's parameters as in that model.
-pub(super) struct Chosen {
-    pub(super) cfg: Config,
-    pub(super) score: Score,
-    pub(super) x: Vec<f64>,
-    pub(super) hat: Hat,
-    pub(super) findings: Vec<Finding>,
-    pub(super) decisions: Vec<Decision>,
-    pub(super) nuisances: Vec<NuisanceTerm>,
-    /// The exact form the relaxation spectrum replaced (its name is read from the spectrum's shape).
-    pub(super) spectrum_exact: Option<Exact>,
-}
-
 /// Stage 4, name: the terms selected on the clean baseline, the other effects that explain each
 /// finding's residual about as well (honest naming), the relaxation spectrum in place of the exact
 /// forms when it predicts clearly better, τ2 refined, and the terms' parameters as in the model.
-pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>, clip_steps: &ClipSteps, actuator: bool) -> Chosen {
+pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>, clip_steps: &ClipSteps, actuator: bool) -> Selected {
     let (d, trials, report) = (&b.d, b.trials.as_slice(), &b.report);
-    let med_tau = {
-        let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
-        crate::sensor::preprocess::median(&mut t)
-    };
-    let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, hat, mut findings, mut decisions, nuisances, round0_exact } =
+    let med_tau = median_tau(&b.trials);
+    let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, hat, mut findings, mut decisions, nuisances, exact: round0_exact } =
         select(&b.base_cfg, clean.clone(), xc.to_vec(), b.hat.clone(), &Ctx { d, trials, hat: &Hat::default(), clip, clip_steps, med_tau }, report);
     let mut spectrum_exact: Option<Exact> = None;
     // honest naming: the other effects that explain each finding's residual about as well
@@ -243,7 +227,7 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
             f.term.params = term_params(d, &cur, &cur_x, e, &hat);
         }
     }
-    Chosen { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, spectrum_exact }
+    Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, exact: spectrum_exact }
 }
 
 #[cfg(test)]
