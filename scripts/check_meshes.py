@@ -612,6 +612,14 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
         fail("the cavity must reach the outside through its openings", f"{len(cav_air)} air regions hold the cavity")
     plugs = None
     zp, zt = mold["parting_z_mm"], mold["flange_top_z_mm"]
+    # the sprue's mouth (its circle just under the parting plane, within the chordal tolerance) lies
+    # wholly over liquid: no part of it over the core's plug or the shell's face
+    sp = mold["openings"][0]
+    rm = sp["radius_mm"] - mold["chordal_tolerance_mm"]
+    disc = m3.Manifold.cylinder(0.02, rm, rm, 96).translate([sp["xy"][0], sp["xy"][1], zp - 0.03])
+    covered = ((disc ^ core).volume() + (disc ^ shell).volume()) / 0.02
+    if covered > 0.01:
+        fail("the sprue's mouth must lie wholly over the cavity", f"{covered:.3f} mm2 of it over the core's plug or the shell's face")
     for o in mold["openings"]:
         # an opening starts at the rim (the parting plane) or, for a vent from a pocket in the
         # ceiling, at the pocket's top
@@ -619,6 +627,11 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
         r = o["radius_mm"] + (zt - zp + 2) * math.tan(math.radians(45)) + 0.2 if "from_z_mm" not in o else o["radius_mm"] + 0.2
         c = m3.Manifold.cylinder(zt - z0 + 3, r, r, 48).translate([o["xy"][0], o["xy"][1], z0])
         plugs = c if plugs is None else plugs + c
+        if "gate_well" in o:
+            # the sprue's gate well beside the rim, in the shell, is the sprue's, not the cover's
+            g = o["gate_well"]
+            well = m3.Manifold.cylinder(g["depth_mm"] + 0.01, g["radius_bottom_mm"], o["radius_mm"] + 0.01 * (o["radius_mm"] - g["radius_bottom_mm"]) / g["depth_mm"], 96)
+            plugs = plugs + (well.translate([o["xy"][0], o["xy"][1], zp - g["depth_mm"]]) - cavity)
     # the key holes' clearances are closed pockets, not the cavity (they touch it only along the
     # parting plane, where the pieces meet): filled, as the build's own check does
     keys = None
@@ -692,7 +705,9 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
         near = np.hypot(probes[:, 0] - o["xy"][0], probes[:, 1] - o["xy"][1]) < o["radius_mm"] + (zt - zp) + 0.05
         # a pocket vent is drilled from 0.3 mm below the pocket's top (tipforge's mold), so the faces
         # it opens lie up to that far below it
-        cand |= near & (probes[:, 2] > (o["from_z_mm"] - 0.35 if "from_z_mm" in o else zp - 0.05))
+        # (the sprue's gate well opens the cover's edge down to the well's floor)
+        below = o["gate_well"]["depth_mm"] if "gate_well" in o else 0.0
+        cand |= near & (probes[:, 2] > (o["from_z_mm"] - 0.35 if "from_z_mm" in o else zp - below - 0.05))
     core_m = trimesh.Trimesh(*_mesh_of(core))
     shell_m = trimesh.Trimesh(*_mesh_of(shell))
     # where the sprue or a vent opens onto the cavity, a face looks into the opening's air
@@ -707,7 +722,7 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
     # vertices tilt such faces by up to ~1e-4
     flat = np.abs(nz) < 2e-4 if mold["draft_deg"] == 0 else np.zeros(len(nz), bool)
     up = (nz > 0) & good & ~opening & ~flat
-    down = (nz < 0) & good & ~flat
+    down = (nz < 0) & good & ~opening & ~flat  # (the gate well opens faces looking down)
     either = flat & good
     wrong = int((~core_m.contains(probes[up])).sum() + (~shell_m.contains(probes[down])).sum())
     if either.any():
@@ -729,10 +744,14 @@ def mold_self_test(root):
         core, shell, cover, tip = mold_inputs(name, mold, man, root)
         tols = mold["chordal_tolerance_mm"] + man["parts"][mold["fingertip_part"]]["features"]["chordal_tolerance_mm"]
         fails = lambda *a: {r for _, r, _ in check_mold(name, mold, *a, tol_sum=tols)}
+        fails_with = lambda mo, *a: {r for _, r, _ in check_mold(name, mo, *a, tol_sum=tols)}
         results[f"{name}: the real mold passes"] = not check_mold(name, mold, core, shell, cover, tip, tol_sum=tols)
         results[f"{name}: a shell raised 0.3 mm intersects"] = any("intersect" in r for r in fails(core, shell.translate([0, 0, 0.3]), cover, tip))
         lid = m3.Manifold.cube([200, 200, 1]).translate([-100, -100, mold["flange_top_z_mm"] - 0.5])
         results[f"{name}: a lid over the sprue and vents traps the cavity"] = any("reach the outside" in r for r in fails(core + lid, shell, cover, tip))
+        inward = json.loads(json.dumps(mold))
+        inward["openings"][0]["xy"][0] -= 1.0
+        results[f"{name}: a sprue 1 mm further in, over the plug, fails the mouth rule"] = any("mouth" in r for r in fails_with(inward, core, shell, cover, tip))
         results[f"{name}: a cover 2 % too large fails the volume and fit rules"] = len(fails(core, shell, grow(cover, 1.02, mold["frames"]["cavity_scale_center"]), tip)) >= 2
         results[f"{name}: a cover lifted 0.2 mm off the fingertip fails the inner-surface rule"] = any("inner surface" in r for r in fails(core, shell, cover, tip.translate([0, 0, 0.2])))
         mirrored = shell.mirror([0, 0, 1]).translate([0, 0, 2 * mold["parting_z_mm"]])

@@ -144,6 +144,41 @@ fn run(d: &Path, mold_text: &str) -> (i32, String) {
     (o.status.code().unwrap_or(-1), text)
 }
 
+/// Issue 18, item 3: the sprue's mouth lies wholly over the cavity. Its axis stands outward of the
+/// rim so that its circle clears the core's plug and reaches past the rim into a gate well in the
+/// shell: the mouth covers no piece, on both molds and with the sprue placed by the file. The rule
+/// fails on the old placement (the axis on the rim's mid-line, the mouth half over the plug and
+/// the shell's face) and on a mold without its well.
+#[test]
+fn the_sprues_mouth_lies_wholly_over_the_cavity() {
+    for (name, extra) in [("mold-1s", None), ("mold-2s", None), ("mold-1s", Some([20.0, 7.6]))] {
+        let mut p = load(name);
+        p.mold.sprue_xy_mm = extra;
+        let (l, a) = conforming::assemble(&p).unwrap();
+        let mut out = Vec::new();
+        let tol = p.mold.chordal_tolerance_mm;
+        assert!(checks::sprue_mouth_check(name, tol, &a, &mut out) < 1e-6 && out.is_empty(), "{name}: {out:?}");
+        // the well holds the tab: some liquid outside the rim, no deeper than the cover is thick
+        let (lo, _) = a.gate.bbox();
+        assert!(a.gate.volume() > 1.0 && (lo[2] - (a.z_parting - p.cover.thickness_mm)).abs() < 1e-6, "{name}: {} mm³ from {}", a.gate.volume(), lo[2]);
+        assert!(checks::conforming(&p, &l, &a).0.is_empty(), "{name}: {:?}", checks::conforming(&p, &l, &a).0);
+        // the old placement: the axis on the rim's mid-line
+        let rim = mold::rim_band(&l, p.cover.thickness_mm);
+        let near = rim.iter().min_by(|q, r| mesh::norm([q.mid[0] - a.sprue.0[0], q.mid[1] - a.sprue.0[1], 0.0]).total_cmp(&mesh::norm([r.mid[0] - a.sprue.0[0], r.mid[1] - a.sprue.0[1], 0.0]))).unwrap();
+        let k = a.k;
+        let mut old = conforming::assemble(&p).unwrap().1;
+        old.sprue.0 = [a.scale_center[0] + k * (near.mid[0] - a.scale_center[0]), a.scale_center[1] + k * (near.mid[1] - a.scale_center[1])];
+        let mut out = Vec::new();
+        let covered = checks::sprue_mouth_check(name, tol, &old, &mut out);
+        assert!(covered > 0.5 && out.iter().any(|v| v.rule.contains("wholly over the cavity")), "{name}: {covered} {out:?}");
+        // the well filled in again: the shell's face closes the mouth's outer part
+        let mut filled = conforming::assemble(&p).unwrap().1;
+        filled.shell = filled.shell.union(&filled.gate);
+        let mut out = Vec::new();
+        assert!(checks::sprue_mouth_check(name, tol, &filled, &mut out) > 0.5 && !out.is_empty(), "{name}");
+    }
+}
+
 #[test]
 fn every_mold_rule_is_reported_with_its_path_and_nothing_is_written() {
     let base = std::fs::read_to_string("params/mold-1s.toml").unwrap();

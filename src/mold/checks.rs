@@ -102,6 +102,7 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
     let (core_shell, core_cav, shell_cav) = overlap_checks(name, a, &mut out);
     let (key_gaps, key_walls) = key_checks(name, m, a, &mut out);
     let openings_ok = opening_checks(name, a, &mut out);
+    let mouth_blocked = sprue_mouth_check(name, m.chordal_tolerance_mm, a, &mut out);
     let AirRegions { open, sealed, reaching_out, enclosed, cavity_vol } = air_region_checks(name, m, a, &mut out);
     let (cover_vol, k3) = cavity_volume_check(name, a, cavity_vol, &mut out);
     let (inner_max, inner_n) = inner_surface_check(p, l, a, &mut out);
@@ -119,6 +120,7 @@ pub fn conforming(p: &MoldParams, l: &Layout, a: &Assembled) -> (Vec<Violation>,
         "key_gaps_mm": key_gaps,
         "key_hole_walls_mm": key_walls,
         "openings_reach_cavity": openings_ok,
+        "sprue_mouth_over_pieces_mm2": mouth_blocked,
         "air_regions_open": open.len(),
         "air_regions_sealed": sealed.len(),
         "sealed_air_at_outer_faces_mm3": reaching_out,
@@ -179,12 +181,13 @@ fn key_checks(name: &str, m: &Mold, a: &Assembled, out: &mut Vec<Violation>) -> 
 /// from a pocket in the ceiling, at the pocket's top. Returns whether each does.
 fn opening_checks(name: &str, a: &Assembled, out: &mut Vec<Violation>) -> Vec<bool> {
     let mut openings_ok = Vec::new();
-    for (what, o) in exits(a).iter().enumerate().map(|(i, o)| (if i == 0 { "sprue" } else { "vent" }, o)) {
+    for (i, o) in exits(a).iter().enumerate() {
+        let what = if i == 0 { "sprue" } else { "vent" };
         let xy = o.xy;
         let top = [xy[0], xy[1], a.z_top + 1.0];
         let bottom = [xy[0], xy[1], a.pocket_top(o).map(|z| z - 0.1).unwrap_or(a.z_parting - 0.02)];
         let clear = a.core.ray_hits(top, bottom).is_empty() && a.shell.ray_hits(top, bottom).is_empty();
-        let into = a.cavity.contains(bottom, a.z_top + 2.0);
+        let into = a.cavity.contains(bottom, a.z_top + 2.0) || (i == 0 && a.gate.contains(bottom, a.z_top + 2.0));
         openings_ok.push(clear && into);
         if !(clear && into) {
             out.push(v(
@@ -195,6 +198,29 @@ fn opening_checks(name: &str, a: &Assembled, out: &mut Vec<Violation>) -> Vec<bo
         }
     }
     openings_ok
+}
+
+/// A mouth this much covered by a piece (mm²) is not wholly over the cavity: below it, facets.
+pub const MAX_MOUTH_COVERED_MM2: f64 = 0.01;
+
+/// Check 3, continued: the sprue's mouth (its circle just under the parting plane) lies wholly over
+/// liquid, the rim and the gate well: no part of it is closed by the core's plug or the shell's
+/// face, where the poured PDMS would stand on a ledge. The mouth is measured within the chordal
+/// tolerance `tol` of its circle (the well is a polygon inscribed in it). Returns the area covered
+/// by a piece (mm²).
+pub fn sprue_mouth_check(name: &str, tol: f64, a: &Assembled, out: &mut Vec<Violation>) -> f64 {
+    let (xy, r) = a.sprue;
+    let h = 0.02;
+    let disc = Solid::cylinder([xy[0], xy[1], a.z_parting - 0.01 - h], [0.0, 0.0, 1.0], h, r - tol, r - tol, 96);
+    let covered = (disc.intersection(&a.core).volume() + disc.intersection(&a.shell).volume()) / h;
+    if covered > MAX_MOUTH_COVERED_MM2 {
+        out.push(v(
+            name,
+            "the sprue's mouth must lie wholly over the cavity (the rim and the gate well)",
+            format!("{covered:.3} mm² of the Ø{:.2} mm mouth at ({:.2}, {:.2}) is over the core's plug or the shell's face", 2.0 * r, xy[0], xy[1]),
+        ));
+    }
+    covered
 }
 
 /// What check 4 measured: the air regions inside the mold with its openings open and plugged.
@@ -226,6 +252,7 @@ fn air_region_checks(name: &str, m: &Mold, a: &Assembled, out: &mut Vec<Violatio
     let mut plugs = Vec::new();
     let r_sprue = super::conforming::sprue_radius(m, w + 2.0) + 0.2;
     plugs.push(Solid::cylinder([a.sprue.0[0], a.sprue.0[1], a.z_parting], [0.0, 0.0, 1.0], w + 3.0, r_sprue, r_sprue, 48));
+    plugs.push(a.gate.clone()); // the gate well beside the rim is the sprue's, not the cover's
     for o in &a.vents {
         plugs.push(Solid::cylinder([o.xy[0], o.xy[1], o.from_z], [0.0, 0.0, 1.0], a.z_top + 1.0 - o.from_z, o.r + 0.2, o.r + 0.2, 24));
     }

@@ -31,6 +31,11 @@ pub struct Assembled {
     /// Top of the core's flange.
     pub z_top: f64,
     pub sprue: ([f64; 2], f64),
+    /// The gate well under the sprue: the part of its mouth outside the rim, cut into the shell
+    /// `gate_depth` mm below the parting plane (its taper carried on down), so that the mouth lies
+    /// wholly over liquid. What it holds is a tab on the cover's edge, trimmed after demolding.
+    pub gate: Solid,
+    pub gate_depth: f64,
     /// Every vent, open from `from_z` up: the parting plane for a vent over the rim, the pocket's
     /// top for a vent drilled from a pocket in the cavity's ceiling.
     pub vents: Vec<Exit>,
@@ -197,6 +202,12 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
     // is cut through, not left coplanar with the cup's rim (which can leave a film over the rim)
     let mut shell_cut = vec![outer.intersection(&region.hull(1.0, 0.0)).scale_about(k, center)];
     shell_cut.extend(holes.iter().cloned());
+    // the gate well: the sprue's cone carried on down into the shell, as deep as the cover is thick
+    let gate_depth = c.thickness_mm;
+    let gate_segs = segments(sprue_radius(m, 0.0), m.chordal_tolerance_mm);
+    let gate_cone = |up: f64| Solid::cylinder([sprue_xy[0], sprue_xy[1], ze - gate_depth], UP, gate_depth + up, sprue_radius(m, -gate_depth), sprue_radius(m, up), gate_segs);
+    shell_cut.push(gate_cone(1.0));
+    let gate = gate_cone(0.0).difference(&cup_k);
     let shell = Solid::cuboid([fl.x_lo, -fl.half_y, fl.z_lo], [fl.x_hi, fl.half_y, ze]).difference(&Solid::union_all(&shell_cut).expect("cup"));
     core.ok(&format!("{name}-core"))?;
     shell.ok(&format!("{name}-shell"))?;
@@ -218,6 +229,8 @@ pub fn assemble(p: &MoldParams) -> Result<(Layout, Assembled)> {
         z_parting: ze,
         z_top: fl.z_top,
         sprue: (sprue_xy, rs),
+        gate,
+        gate_depth,
         vents: vent_xy.iter().map(|v| Exit { xy: *v, r: rv, from_z: ze }).chain(pockets.iter().map(|q| Exit { xy: [q[0], q[1]], r: rv, from_z: q[2] })).collect(),
         key_holes,
         unvented_pockets: unvented,
@@ -630,7 +643,7 @@ fn manifest_entry(
     entry.insert("draft_deg".into(), json!(p.mold.draft_deg));
     entry.insert(
         "openings".into(),
-        json!(std::iter::once(json!({"xy": a.sprue.0, "radius_mm": a.sprue.1}))
+        json!(std::iter::once(json!({"xy": a.sprue.0, "radius_mm": a.sprue.1, "gate_well": {"depth_mm": a.gate_depth, "volume_mm3": a.gate.volume(), "radius_bottom_mm": sprue_radius(&p.mold, -a.gate_depth), "why": "the sprue's mouth lies wholly over liquid: the rim and this well in the shell beside it (a tab on the cover's edge, trimmed)"}}))
             .chain(a.vents.iter().map(|v| match a.pocket_top(v) {
                 // a vent from a pocket in the cavity's ceiling starts at the pocket's top
                 Some(z) => json!({"xy": v.xy, "radius_mm": v.r, "from_z_mm": z, "why": "the top of the recessed flat round a tilted seat, a pocket in the ceiling that traps air"}),

@@ -195,49 +195,79 @@ pub fn edge_tilt_deg(shape: &Shape, f: &Frame, z_e: f64, x_start: f64, t: f64) -
     any.then_some(worst)
 }
 
+/// One point of the cavity's rim at the parting plane (mold frame, plan): the band's mid-line
+/// point, its outward normal (away from the pad) and its width there.
+#[derive(Debug, Clone, Copy)]
+pub struct RimPoint {
+    pub mid: [f64; 2],
+    pub outward: [f64; 2],
+    pub width_mm: f64,
+}
+
 /// Mid-line of the cavity's rim at the parting plane (plan points of the mold frame), from the
-/// mount end on the −y flank round the tip to the +y flank. The rim is the band between the pad
-/// and its offset; its horizontal width is t / cos(tilt) for the local normal tilt.
+/// mount end on the −y flank round the tip to the +y flank.
 pub fn rim_midline(l: &Layout, t: f64) -> Vec<[f64; 2]> {
+    rim_band(l, t).iter().map(|r| r.mid).collect()
+}
+
+/// The cavity's rim at the parting plane, point by point, in the order of `rim_midline`. The rim
+/// is the band between the pad and its offset; its horizontal width is t / cos(tilt) for the
+/// local normal tilt.
+pub fn rim_band(l: &Layout, t: f64) -> Vec<RimPoint> {
     let s = &l.shape;
     let f = &l.frame;
     let z = l.z_parting;
-    let mid = |q: P3| -> [f64; 2] {
+    let at = |q: P3| -> RimPoint {
         let qm = f.to_mold(q);
         let nv = f.dir_to_mold(s.normal_at(q));
         let h = (nv[0] * nv[0] + nv[1] * nv[1]).sqrt().max(1e-3);
         let w = t / h;
-        [qm[0] + nv[0] / h * w / 2.0, qm[1] + nv[1] / h * w / 2.0]
+        let o = [nv[0] / h, nv[1] / h];
+        RimPoint { mid: [qm[0] + o[0] * w / 2.0, qm[1] + o[1] * w / 2.0], outward: o, width_mm: w }
     };
     // the pad's bottom (y = 0) meets the parting plane here: the rim's tip end
     let bottom = |x: f64| f.to_mold([x, 0.0, -s.pad_depth_at(x)])[2] - z;
     let x_tip = if bottom(l.x_start) < 0.0 { mesh::bisect(l.x_start, s.length, 60, |x| bottom(x) < 0.0) } else { l.x_start };
     let n = 120;
-    let side: Vec<[f64; 2]> = (0..n)
+    let side: Vec<RimPoint> = (0..n)
         .filter_map(|i| {
             let x = l.x_start + 1.0 + (x_tip - l.x_start - 1.0) * i as f64 / n as f64;
-            at_plane(s, f, z, x, 0.0).filter(|q| q[1] > 1e-6).map(mid)
+            at_plane(s, f, z, x, 0.0).filter(|q| q[1] > 1e-6).map(at)
         })
-        .filter(|p| p[0] > l.x_start_m + 0.5)
+        .filter(|r| r.mid[0] > l.x_start_m + 0.5)
         .collect();
-    let tip = mid([x_tip, 0.0, -s.pad_depth_at(x_tip)]);
-    let mut out: Vec<[f64; 2]> = side.iter().map(|p| [p[0], -p[1]]).collect();
+    let tip = at([x_tip, 0.0, -s.pad_depth_at(x_tip)]);
+    let mirror = |r: &RimPoint| RimPoint { mid: [r.mid[0], -r.mid[1]], outward: [r.outward[0], -r.outward[1]], width_mm: r.width_mm };
+    let mut out: Vec<RimPoint> = side.iter().map(mirror).collect();
     out.push(tip);
     out.extend(side.iter().rev().copied());
     out
 }
 
-/// Sprue axis (plan) and vent axes: the sprue where the file says or at the tip; vents at the rim
-/// points farthest from the sprue and from each other (where the last air is pushed).
+/// The sprue's mouth keeps this clear of the core's plug (mm): its circle lies over the rim and
+/// the gate well beside it, wholly over the cavity.
+pub const SPRUE_PLUG_CLEARANCE_MM: f64 = 0.2;
+
+/// Sprue axis (plan) and vent axes. The sprue pours at the rim point the file names (the one
+/// nearest it) or at the tip; its axis stands outward of that point so that its mouth starts
+/// `SPRUE_PLUG_CLEARANCE_MM` outside the plug and reaches past the rim into a gate well cut in the
+/// shell (issue 18: the pour cup lies wholly over the cavity). Vents stand on the rim points
+/// farthest from the sprue's and from each other (where the last air is pushed).
 pub fn openings(p: &MoldParams, l: &Layout) -> ([f64; 2], Vec<[f64; 2]>) {
-    let rim = rim_midline(l, p.cover.thickness_mm);
-    let sprue = p.mold.sprue_xy_mm.unwrap_or(rim[rim.len() / 2]);
-    let mut chosen = vec![sprue];
+    let band = rim_band(l, p.cover.thickness_mm);
+    let d2 = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
+    let at = match p.mold.sprue_xy_mm {
+        Some(xy) => *band.iter().min_by(|a, b| d2(a.mid, xy).total_cmp(&d2(b.mid, xy))).expect("rim has points"),
+        None => band[band.len() / 2],
+    };
+    let out = p.mold.sprue_diameter_mm / 2.0 + SPRUE_PLUG_CLEARANCE_MM - at.width_mm / 2.0;
+    let sprue = [at.mid[0] + at.outward[0] * out, at.mid[1] + at.outward[1] * out];
+    let mut chosen = vec![at.mid];
     let mut vents = Vec::new();
     for _ in 0..p.mold.vent_count {
-        let best = rim
+        let best = band
             .iter()
-            .map(|q| (chosen.iter().map(|c| ((q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2)).sqrt()).fold(f64::INFINITY, f64::min), *q))
+            .map(|r| (chosen.iter().map(|c| d2(r.mid, *c).sqrt()).fold(f64::INFINITY, f64::min), r.mid))
             .max_by(|a, b| a.0.total_cmp(&b.0))
             .map(|(_, q)| q)
             .expect("rim has points");

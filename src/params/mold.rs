@@ -132,7 +132,7 @@ pub struct Mold {
     pub key_clearance_mm: f64,
     pub sprue_diameter_mm: f64,
     pub sprue_taper_deg: f64,
-    /// Sprue axis (x, y) in the design frame; None = over the cavity's rim at the tip.
+    /// The rim point (x, y, mold frame) the sprue pours at (its axis stands outward of it); None = the tip.
     pub sprue_xy_mm: Option<[f64; 2]>,
     pub vent_count: usize,
     pub vent_diameter_mm: f64,
