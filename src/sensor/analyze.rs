@@ -229,6 +229,15 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
         .filter(|(_, rec)| preprocess::by_hand(rec, &opts.pre))
         .map(|(ri, rec)| {
             let own = &prep.steps[ri];
+            // the read-out's map, inverted: a level to u = 1 + Rm·G (a divider) or G (a resistance)
+            let to_u = |v: f64| -> Option<f64> {
+                match readout(rec)? {
+                    Readout::DividerHigh { vcc_v, .. } => (v > 0.0 && v < vcc_v).then(|| vcc_v / (vcc_v - v)),
+                    Readout::DividerLow { vcc_v, .. } => (v > 0.0 && v < vcc_v).then(|| vcc_v / v),
+                    Readout::Ohm => (v > 0.0).then(|| 1.0 / v),
+                }
+            };
+            let through = handling_spikes::read_out_course(&rec.time_s, &rec.response, own, to_u);
             let edges: Vec<EdgeStep> = own
                 .iter()
                 .enumerate()
@@ -244,7 +253,11 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
                     };
                     let from = (st.t_log - preprocess::HANDLING_WINDOW_S).max(if k > 0 { own[k - 1].t_log + 0.5 * (st.t_log - own[k - 1].t_log) } else { f64::NEG_INFINITY });
                     let to = (st.t_log + preprocess::HANDLING_WINDOW_S).min(st.t_end);
-                    Some(EdgeStep { t0_s: t0, tau_s: tau, from_s: from, to_s: to })
+                    // the level the step leaves: the step before it, or for the first the one that
+                    // ends at its load
+                    let left = if k > 0 { Some(&own[k - 1]) } else { own.iter().rev().find(|o| (o.after - st.before).abs() < 1e-9) };
+                    let tau_before_s = left.and_then(|o| steps.iter().find(|s| s.phase == o.phase && s.index == o.index)).and_then(|s| s.lsq.as_ref()).map(|f| f.tau_s);
+                    Some(EdgeStep { t0_s: t0, tau_s: tau, from_s: from, to_s: to, through: through[k], tau_before_s })
                 })
                 .collect();
             let ceiling = saturation::ceiling(&rec.response);
