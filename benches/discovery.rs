@@ -338,8 +338,11 @@ fn main() {
                 if e == E::Sat && sv.effects.saturation_before_noise {
                     s.effects.saturation_v = rail_case(&sv, &pv, case);
                 }
-                if run(&s, &pv, seed).found.iter().any(|x| x == e.name()) {
+                let found = run(&s, &pv, seed).found;
+                if found.iter().any(|x| x == e.name()) {
                     hit += 1;
+                } else if std::env::var("TIPFORGE_DISCOVERY_VERBOSE").is_ok() {
+                    eprintln!("{label}: {} seed {seed} missed: {found:?}", e.name());
                 }
                 seed += 10;
             }

@@ -401,11 +401,11 @@ pub fn detect(t: &[f64], v: &[f64], steps: &[EdgeStep], sigma: f64, max_spike_s:
 
 /// Spike windows at the steps' edges of every recording of a data set.
 pub fn detect_all(series: &[EdgeSeries], max_spike_s: f64) -> Vec<Vec<SpikeWindow>> {
-    series.iter().map(|s| edge_residuals(s, max_spike_s).into_iter().flat_map(|e| scan(&e.t, &e.rr, s.sigma, max_spike_s)).collect()).collect()
+    series.iter().map(|s| edge_residuals(s).into_iter().flat_map(|e| scan(&e.t, &e.rr, s.sigma, max_spike_s)).collect()).collect()
 }
 
 /// The residuals of one recording's steps (robust first-order fit, the slow part removed).
-fn edge_residuals(s: &EdgeSeries, max_spike_s: f64) -> Vec<EdgeResidual> {
+fn edge_residuals(s: &EdgeSeries) -> Vec<EdgeResidual> {
     let (t, v, sigma) = (s.t, s.v, s.sigma);
     if t.len() < 8 || sigma <= 0.0 {
         return vec![];
