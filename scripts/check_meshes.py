@@ -585,6 +585,43 @@ def regions(mf, min_volume=1e-3):
     return [p for p in mf.decompose() if p.volume() > min_volume]
 
 
+def sprue_mouth_covered(mold, core, shell):
+    """Area (mm2) of the sprue's mouth (its circle just under the parting plane, within the chordal
+    tolerance) over the core or the shell: it must lie wholly over liquid."""
+    sp, zp = mold["openings"][0], mold["parting_z_mm"]
+    rm = sp["radius_mm"] - mold["chordal_tolerance_mm"]
+    disc = m3.Manifold.cylinder(0.02, rm, rm, 96).translate([sp["xy"][0], sp["xy"][1], zp - 0.03])
+    return ((disc ^ core).volume() + (disc ^ shell).volume()) / 0.02
+
+
+def opening_plugs(mold, cavity):
+    """Plugs for the sprue and vents from where they open (the rim, or a pocket's top) up through the
+    flange, and for the sprue's gate well beside the rim (the sprue's, not the cover's)."""
+    zp, zt = mold["parting_z_mm"], mold["flange_top_z_mm"]
+    plugs = None
+    for o in mold["openings"]:
+        z0 = o.get("from_z_mm", zp)
+        r = o["radius_mm"] + (zt - zp + 2) * math.tan(math.radians(45)) + 0.2 if "from_z_mm" not in o else o["radius_mm"] + 0.2
+        c = m3.Manifold.cylinder(zt - z0 + 3, r, r, 48).translate([o["xy"][0], o["xy"][1], z0])
+        plugs = c if plugs is None else plugs + c
+        if "gate_well" in o:
+            # 0.05 mm wider than the well's cone (its polygon's corners stand outside the circle)
+            g = o["gate_well"]
+            top = o["radius_mm"] + 0.01 * (o["radius_mm"] - g["radius_bottom_mm"]) / g["depth_mm"]
+            well = m3.Manifold.cylinder(g["depth_mm"] + 0.01, g["radius_bottom_mm"] + 0.05, top + 0.05, 96)
+            plugs = plugs + (well.translate([o["xy"][0], o["xy"][1], zp - g["depth_mm"]]) - cavity)
+    return plugs
+
+
+def in_gate_well(mold, p):
+    """Which points lie within the sprue's gate well (its top radius, from its floor to the parting plane)."""
+    sp, zp = mold["openings"][0], mold["parting_z_mm"]
+    if "gate_well" not in sp:
+        return np.zeros(len(p), bool)
+    depth = sp["gate_well"]["depth_mm"]
+    return (np.hypot(p[:, 0] - sp["xy"][0], p[:, 1] - sp["xy"][1]) < sp["radius_mm"] + 0.05) & (p[:, 2] > zp - depth - 0.05) & (p[:, 2] < zp + 0.05)
+
+
 def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
     """Rules of an assembled conforming mold, independent of tipforge's own checks."""
     out = []
@@ -610,28 +647,11 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
     top_band = m3.Manifold.cube([hi[0] - lo[0], hi[1] - lo[1], 0.05]).translate([lo[0], lo[1], hi[2] - 0.05])
     if len(cav_air) != 1 or (cav_air[0] ^ top_band).volume() < 1e-4:
         fail("the cavity must reach the outside through its openings", f"{len(cav_air)} air regions hold the cavity")
-    plugs = None
     zp, zt = mold["parting_z_mm"], mold["flange_top_z_mm"]
-    # the sprue's mouth (its circle just under the parting plane, within the chordal tolerance) lies
-    # wholly over liquid: no part of it over the core's plug or the shell's face
-    sp = mold["openings"][0]
-    rm = sp["radius_mm"] - mold["chordal_tolerance_mm"]
-    disc = m3.Manifold.cylinder(0.02, rm, rm, 96).translate([sp["xy"][0], sp["xy"][1], zp - 0.03])
-    covered = ((disc ^ core).volume() + (disc ^ shell).volume()) / 0.02
+    covered = sprue_mouth_covered(mold, core, shell)
     if covered > 0.01:
         fail("the sprue's mouth must lie wholly over the cavity", f"{covered:.3f} mm2 of it over the core's plug or the shell's face")
-    for o in mold["openings"]:
-        # an opening starts at the rim (the parting plane) or, for a vent from a pocket in the
-        # ceiling, at the pocket's top
-        z0 = o.get("from_z_mm", zp)
-        r = o["radius_mm"] + (zt - zp + 2) * math.tan(math.radians(45)) + 0.2 if "from_z_mm" not in o else o["radius_mm"] + 0.2
-        c = m3.Manifold.cylinder(zt - z0 + 3, r, r, 48).translate([o["xy"][0], o["xy"][1], z0])
-        plugs = c if plugs is None else plugs + c
-        if "gate_well" in o:
-            # the sprue's gate well beside the rim, in the shell, is the sprue's, not the cover's
-            g = o["gate_well"]
-            well = m3.Manifold.cylinder(g["depth_mm"] + 0.01, g["radius_bottom_mm"], o["radius_mm"] + 0.01 * (o["radius_mm"] - g["radius_bottom_mm"]) / g["depth_mm"], 96)
-            plugs = plugs + (well.translate([o["xy"][0], o["xy"][1], zp - g["depth_mm"]]) - cavity)
+    plugs = opening_plugs(mold, cavity)
     # the key holes' clearances are closed pockets, not the cavity (they touch it only along the
     # parting plane, where the pieces meet): filled, as the build's own check does
     keys = None
@@ -722,7 +742,8 @@ def check_mold(name, mold, core, shell, cover, tip, tol_sum=0.03):
     # vertices tilt such faces by up to ~1e-4
     flat = np.abs(nz) < 2e-4 if mold["draft_deg"] == 0 else np.zeros(len(nz), bool)
     up = (nz > 0) & good & ~opening & ~flat
-    down = (nz < 0) & good & ~opening & ~flat  # (the gate well opens faces looking down)
+    # faces looking down open only into the sprue's gate well (the cover's edge beside the rim)
+    down = (nz < 0) & good & ~(opening & in_gate_well(mold, probes)) & ~flat
     either = flat & good
     wrong = int((~core_m.contains(probes[up])).sum() + (~shell_m.contains(probes[down])).sum())
     if either.any():

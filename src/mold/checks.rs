@@ -206,8 +206,8 @@ pub const MAX_MOUTH_COVERED_MM2: f64 = 0.01;
 /// Check 3, continued: the sprue's mouth (its circle just under the parting plane) lies wholly over
 /// liquid, the rim and the gate well: no part of it is closed by the core's plug or the shell's
 /// face, where the poured PDMS would stand on a ledge. The mouth is measured within the chordal
-/// tolerance `tol` of its circle (the well is a polygon inscribed in it). Returns the area covered
-/// by a piece (mm²).
+/// tolerance `tol` of its circle (the well is a polygon whose inner radius is at least r − tol).
+/// Returns the area covered by a piece (mm²).
 pub fn sprue_mouth_check(name: &str, tol: f64, a: &Assembled, out: &mut Vec<Violation>) -> f64 {
     let (xy, r) = a.sprue;
     let h = 0.02;

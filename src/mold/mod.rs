@@ -222,7 +222,9 @@ pub fn rim_band(l: &Layout, t: f64) -> Vec<RimPoint> {
         let nv = f.dir_to_mold(s.normal_at(q));
         let h = (nv[0] * nv[0] + nv[1] * nv[1]).sqrt().max(1e-3);
         let w = t / h;
-        let o = [nv[0] / h, nv[1] / h];
+        // the outward direction in plan, a unit vector even where the normal is nearly vertical
+        let hn = (nv[0] * nv[0] + nv[1] * nv[1]).sqrt();
+        let o = if hn > 1e-12 { [nv[0] / hn, nv[1] / hn] } else { [1.0, 0.0] };
         RimPoint { mid: [qm[0] + o[0] * w / 2.0, qm[1] + o[1] * w / 2.0], outward: o, width_mm: w }
     };
     // the pad's bottom (y = 0) meets the parting plane here: the rim's tip end
@@ -521,7 +523,7 @@ fn key_and_opening_rules(p: &MoldParams, l: &Layout, out: &mut Vec<Problem>) {
             push(
                 "mold.sprue_xy_mm",
                 format!("[{}, {}]", xy[0], xy[1]),
-                format!("the sprue is outside the cavity: its axis must meet the cover's rim at the parting plane (x > {:.1}, between the pad and {t} mm outside it); leave it out to pour at the tip", l.x_start),
+                format!("the sprue is outside the cavity: the rim point it names must lie on the cover's rim at the parting plane (x > {:.1}, between the pad and {t} mm outside it; the sprue's axis then stands outward of it); leave it out to pour at the tip", l.x_start),
             );
         }
     }

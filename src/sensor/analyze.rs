@@ -232,8 +232,9 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
             // the read-out's map, inverted: a level to u = 1 + Rm·G (a divider) or G (a resistance)
             let to_u = |v: f64| -> Option<f64> {
                 match readout(rec)? {
-                    Readout::DividerHigh { vcc_v, .. } => (v > 0.0 && v < vcc_v).then(|| vcc_v / (vcc_v - v)),
-                    Readout::DividerLow { vcc_v, .. } => (v > 0.0 && v < vcc_v).then(|| vcc_v / v),
+                    // (a level at or just past the unloaded end, through noise or an offset, is kept)
+                    Readout::DividerHigh { vcc_v, .. } => (v < vcc_v).then(|| vcc_v / (vcc_v - v)),
+                    Readout::DividerLow { vcc_v, .. } => (v > 0.0).then(|| vcc_v / v),
                     Readout::Ohm => (v > 0.0).then(|| 1.0 / v),
                 }
             };

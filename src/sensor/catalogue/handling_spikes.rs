@@ -33,8 +33,9 @@ pub struct EdgeStep {
     /// settled levels (`read_out_course`). The level at a share s of the way in conductance is then
     /// a share u_b·s / (u_a + (u_b − u_a)·s) of the way in the read-out. None: straight.
     pub through: Option<[f64; 2]>,
-    /// The time constant of the level the step leaves (the fit of the step before it), when known:
-    /// during a touch the time constant may glide with the load from it to the step's own.
+    /// The time constant of the level the step leaves, when known (the fit of the step before it;
+    /// for a recording's first step, of the last step that ends at its load): during a touch the
+    /// time constant may glide with the load from it to the step's own.
     pub tau_before_s: Option<f64>,
 }
 
@@ -87,8 +88,8 @@ fn course_rises(x: &[f64], tau: f64, d: f64, bend: Bend, tau_from: Option<f64>, 
     for i in 0..m {
         let (s0, s1) = (i as f64 / m as f64, (i + 1) as f64 / m as f64);
         let (u0, u1) = (input(s0), input(s1));
-        let e = (-h / tau_at(0.5 * (s0 + s1))).exp();
         let tk = tau_at(0.5 * (s0 + s1));
+        let e = (-h / tk).exp();
         y = u1 + (y - u0) * e - (u1 - u0) * tk / h * (1.0 - e);
         grid.push(y);
     }
@@ -304,10 +305,12 @@ impl Local<'_> {
             }
         }
         // a press larger than a hand's is not one: the step is scanned with the ramp alone
-        let bump = self.columns(best.t0, best.tau, best.touch, best.press, shape).into_iter().map(|c| (c[5] * best.x[5] + c[6] * best.x[6]).abs());
-        if best.press && bump.fold(0.0, f64::max) > MAX_PRESS_SHARE * best.x[1].abs() {
-            let (obj, x) = self.fit(best.t0, best.tau, best.touch, false, shape);
-            best = LocalFit { obj, press: false, x, ..best };
+        if best.press {
+            let bump = self.columns(best.t0, best.tau, best.touch, best.press, shape).into_iter().map(|c| (c[5] * best.x[5] + c[6] * best.x[6]).abs());
+            if bump.fold(0.0, f64::max) > MAX_PRESS_SHARE * best.x[1].abs() {
+                let (obj, x) = self.fit(best.t0, best.tau, best.touch, false, shape);
+                best = LocalFit { obj, press: false, x, ..best };
+            }
         }
         best
     }
@@ -331,7 +334,8 @@ fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64, shape: Shape
 }
 
 /// The other shapes a step may take, from what the recording says of it (its read-out's bend, the
-/// time constant of the level it leaves): tried only where the straight one leaves a spike.
+/// time constant of the level it leaves): tried only where the straight one leaves a spike or a
+/// misfit.
 fn courses(st: &EdgeStep) -> Vec<Shape> {
     let bends: Vec<Bend> = match st.through {
         Some(u) if (through_divider(u, 0.5) - 0.5).abs() >= MIN_BEND / 4.0 => vec![Bend::None, Bend::Input(u), Bend::Output(u)],
@@ -425,7 +429,7 @@ fn edge_residuals(s: &EdgeSeries) -> Vec<EdgeResidual> {
         // the one that fits best
         // (a long misfit too: it merges with a spike beside it into one window too long to be one)
         if !scan(&tt, &rr, sigma, f64::INFINITY).is_empty() {
-            let other = courses(st).into_iter().map(|sh| robust_residual(&tt, &vv, st, sigma, sh)).min_by(|a, b| a.0.total_cmp(&b.0));
+            let other = courses(st).into_iter().map(|sh| robust_residual(&tt, &vv, st, sigma, sh)).filter(|(o, _)| o.is_finite()).min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((_, r2)) = other.filter(|(o, _)| *o < obj) {
                 rr = high_pass(&r2, half);
             }
@@ -543,17 +547,34 @@ mod tests {
 
     #[test]
     fn a_course_with_nothing_to_bend_or_glide_is_the_straight_rise() {
-        let x: Vec<f64> = (0..400).map(|i| i as f64 * 0.01 - 0.5).collect();
-        for d in [0.0, 0.25, 0.5, 1.0] {
+        // off the integration grid too (the samples between its nodes are interpolated)
+        let x: Vec<f64> = (0..550).map(|i| i as f64 * 0.0073 - 0.5).collect();
+        for d in [0.0, 0.25, 0.37, 0.5, 1.0] {
             let c = course_rises(&x, 0.6, d, Bend::None, None, false);
             for (xj, cj) in x.iter().zip(&c) {
                 let r = if *xj > 0.0 { ramp_rise(*xj, 0.6, d) } else { 0.0 };
-                assert!((cj - r).abs() < 1e-6, "d {d} x {xj}: {cj} vs {r}");
+                assert!((cj - r).abs() < 1e-4, "d {d} x {xj}: {cj} vs {r}");
             }
+        }
+        // a gliding τ: against a direct integration on a fine grid
+        let (ta, tb, d) = (0.6, 0.25, 0.5);
+        let c = course_rises(&[0.2, 0.5, 0.9], tb, d, Bend::None, Some(ta), false);
+        let (mut y, dt) = (0.0, 1e-5);
+        let mut want = Vec::new();
+        for k in 0..90_000 {
+            let x = k as f64 * dt;
+            let s = (x / d).min(1.0);
+            y += dt * (s - y) / (ta + (tb - ta) * s);
+            if [20_000, 50_000, 89_999].contains(&k) {
+                want.push(y);
+            }
+        }
+        for (a, b) in c.iter().zip(&want) {
+            assert!((a - b).abs() < 1e-3, "{c:?} vs {want:?}");
         }
         // an output bend is the divider's map of the straight rise; it keeps both ends
         let c = course_rises(&x, 0.6, 0.5, Bend::Output([2.5, 1.2]), None, true);
-        assert!(c[0] == 0.0 && (c[399] - 1.0).abs() < 1e-2);
+        assert!(c[0] == 0.0 && (c[c.len() - 1] - 1.0).abs() < 1e-2);
     }
 
     /// A removal to the lightest load as family A's simulator makes it: the load lowered by hand
