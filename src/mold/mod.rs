@@ -220,10 +220,9 @@ pub fn rim_band(l: &Layout, t: f64) -> Vec<RimPoint> {
     let at = |q: P3| -> RimPoint {
         let qm = f.to_mold(q);
         let nv = f.dir_to_mold(s.normal_at(q));
-        let h = (nv[0] * nv[0] + nv[1] * nv[1]).sqrt().max(1e-3);
-        let w = t / h;
-        // the outward direction in plan, a unit vector even where the normal is nearly vertical
         let hn = (nv[0] * nv[0] + nv[1] * nv[1]).sqrt();
+        let w = t / hn.max(1e-3);
+        // the outward direction in plan, a unit vector even where the normal is nearly vertical
         let o = if hn > 1e-12 { [nv[0] / hn, nv[1] / hn] } else { [1.0, 0.0] };
         RimPoint { mid: [qm[0] + o[0] * w / 2.0, qm[1] + o[1] * w / 2.0], outward: o, width_mm: w }
     };

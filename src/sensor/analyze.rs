@@ -230,20 +230,15 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
         .map(|(ri, rec)| {
             let own = &prep.steps[ri];
             // the read-out's map, inverted: a level to u = 1 + Rm·G (a divider) or G (a resistance)
-            let to_u = |v: f64| -> Option<f64> {
-                match readout(rec)? {
-                    // (a level at or just past the unloaded end, through noise or an offset, is kept)
-                    Readout::DividerHigh { vcc_v, .. } => (v < vcc_v).then(|| vcc_v / (vcc_v - v)),
-                    Readout::DividerLow { vcc_v, .. } => (v > 0.0).then(|| vcc_v / v),
-                    Readout::Ohm => (v > 0.0).then(|| 1.0 / v),
-                }
-            };
+            let ro = readout(rec);
+            let to_u = |v: f64| ro.and_then(|r| r.divider_u(v));
             let through = handling_spikes::read_out_course(&rec.time_s, &rec.response, own, to_u);
             let edges: Vec<EdgeStep> = own
                 .iter()
                 .enumerate()
                 .filter_map(|(k, st)| {
-                    let sr = steps.iter().find(|s| s.phase == st.phase && s.index == st.index)?;
+                    let report_of = |o: &Step| steps.iter().find(|s| s.phase == o.phase && s.index == o.index);
+                    let sr = report_of(st)?;
                     let f = sr.lsq.as_ref()?;
                     let q = f.trials.iter().position(|tp| tp.recording == rec.source)?;
                     // a jump's edge is the jump (the fitted curve's, slower, would take the
@@ -257,7 +252,7 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
                     // the level the step leaves: the step before it, or for the first the one that
                     // ends at its load
                     let left = if k > 0 { Some(&own[k - 1]) } else { own.iter().rev().find(|o| (o.after - st.before).abs() < 1e-9) };
-                    let tau_before_s = left.and_then(|o| steps.iter().find(|s| s.phase == o.phase && s.index == o.index)).and_then(|s| s.lsq.as_ref()).map(|f| f.tau_s);
+                    let tau_before_s = left.and_then(report_of).and_then(|s| s.lsq.as_ref()).map(|f| f.tau_s);
                     Some(EdgeStep { t0_s: t0, tau_s: tau, from_s: from, to_s: to, through: through[k], tau_before_s })
                 })
                 .collect();

@@ -24,6 +24,18 @@ impl Readout {
         };
         (g.is_finite() && g > 0.0).then_some(g)
     }
+    /// The divider's u = 1 + Rm·G at response `v` (G for a resistance): a step's share of the way
+    /// in the read-out follows its share in conductance through it (`handling_spikes::EdgeStep`).
+    /// Unlike `conductance`, a level at or just past the unloaded end (G ≤ 0 through noise or an
+    /// offset) is kept.
+    pub fn divider_u(self, v: f64) -> Option<f64> {
+        let u = match self {
+            Readout::DividerHigh { vcc_v, .. } => vcc_v / (vcc_v - v),
+            Readout::DividerLow { vcc_v, .. } => vcc_v / v,
+            Readout::Ohm => 1.0 / v,
+        };
+        (u.is_finite() && u > 0.0).then_some(u)
+    }
     pub fn response(self, g: f64) -> f64 {
         match self {
             Readout::DividerHigh { vcc_v, r_m_ohm } => vcc_v * r_m_ohm * g / (r_m_ohm * g + 1.0),
@@ -113,6 +125,24 @@ pub fn line(x: &[f64], y: &[f64]) -> (f64, f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn divider_u_inverts_the_response() {
+        for r in [Readout::DividerHigh { vcc_v: 3.3, r_m_ohm: 1000.0 }, Readout::DividerLow { vcc_v: 5.0, r_m_ohm: 10_000.0 }] {
+            let rm = match r {
+                Readout::DividerHigh { r_m_ohm, .. } | Readout::DividerLow { r_m_ohm, .. } => r_m_ohm,
+                Readout::Ohm => unreachable!(),
+            };
+            for g in [1e-6, 1e-4, 3e-3] {
+                let u = r.divider_u(r.response(g)).unwrap();
+                assert!((u - (1.0 + rm * g)).abs() < 1e-9 * u, "{r:?} {g}: {u}");
+            }
+        }
+        assert!((Readout::Ohm.divider_u(Readout::Ohm.response(2e-4)).unwrap() - 2e-4).abs() < 1e-15);
+        // the unloaded end is kept, a response past the supply is not
+        assert!(Readout::DividerHigh { vcc_v: 3.3, r_m_ohm: 1000.0 }.divider_u(-0.001).is_some());
+        assert!(Readout::DividerHigh { vcc_v: 3.3, r_m_ohm: 1000.0 }.divider_u(3.4).is_none());
+    }
 
     #[test]
     fn recovers_a_power_law_through_the_divider() {

@@ -316,21 +316,28 @@ impl Local<'_> {
     }
 }
 
+impl<'a> Local<'a> {
+    /// One step's samples, their noise and the start of its fits: the level before the onset and
+    /// the step to the level after 3τ (medians).
+    fn new(t: &'a [f64], v: &'a [f64], st: &EdgeStep, sigma: f64) -> Self {
+        let n = t.len();
+        let mut pre: Vec<f64> = (0..n).filter(|&j| t[j] < st.t0_s - 0.2).map(|j| v[j]).collect();
+        let mut late: Vec<f64> = (0..n).filter(|&j| t[j] > st.t0_s + 3.0 * st.tau_s).map(|j| v[j]).collect();
+        let a0 = if pre.is_empty() { v[0] } else { median(&mut pre) };
+        let l0 = if late.is_empty() { v[n - 1] } else { median(&mut late) };
+        let mut start = [0.0; NCOL];
+        start[0] = a0;
+        start[1] = l0 - a0;
+        Local { t, v, k: 1.345 * sigma, span: (t[n - 1] - t[0]).max(1e-9), start }
+    }
+}
+
 /// Robust (Huber) fit of the local model of one shape over onsets near `t0_s` and time constants
 /// around `tau_s`; returns its objective and the residuals.
-fn robust_residual(t: &[f64], v: &[f64], st: &EdgeStep, sigma: f64, shape: Shape) -> (f64, Vec<f64>) {
-    let n = t.len();
-    let mut pre: Vec<f64> = (0..n).filter(|&j| t[j] < st.t0_s - 0.2).map(|j| v[j]).collect();
-    let mut late: Vec<f64> = (0..n).filter(|&j| t[j] > st.t0_s + 3.0 * st.tau_s).map(|j| v[j]).collect();
-    let a0 = if pre.is_empty() { v[0] } else { median(&mut pre) };
-    let l0 = if late.is_empty() { v[n - 1] } else { median(&mut late) };
-    let mut start = [0.0; NCOL];
-    start[0] = a0;
-    start[1] = l0 - a0;
-    let local = Local { t, v, k: 1.345 * sigma, span: (t[n - 1] - t[0]).max(1e-9), start };
+fn robust_residual(local: &Local, st: &EdgeStep, shape: Shape) -> (f64, Vec<f64>) {
     let best = local.search(st, shape);
     let cols = local.columns(best.t0, best.tau, best.touch, best.press, shape);
-    (best.obj, (0..n).map(|j| v[j] - model(&cols[j], &best.x)).collect())
+    (best.obj, local.v.iter().zip(&cols).map(|(vj, c)| vj - model(c, &best.x)).collect())
 }
 
 /// The other shapes a step may take, from what the recording says of it (its read-out's bend, the
@@ -423,13 +430,14 @@ fn edge_residuals(s: &EdgeSeries) -> Vec<EdgeResidual> {
             continue;
         }
         let (tt, vv): (Vec<f64>, Vec<f64>) = idx.iter().map(|&j| (t[j], v[j])).unzip();
-        let (obj, r) = robust_residual(&tt, &vv, st, sigma, Shape::Straight);
+        let local = Local::new(&tt, &vv, st, sigma);
+        let (obj, r) = robust_residual(&local, st, Shape::Straight);
         let mut rr = high_pass(&r, half);
         // where the straight model leaves a spike or a misfit, the step's other shapes are tried:
         // the one that fits best
         // (a long misfit too: it merges with a spike beside it into one window too long to be one)
         if !scan(&tt, &rr, sigma, f64::INFINITY).is_empty() {
-            let other = courses(st).into_iter().map(|sh| robust_residual(&tt, &vv, st, sigma, sh)).filter(|(o, _)| o.is_finite()).min_by(|a, b| a.0.total_cmp(&b.0));
+            let other = courses(st).into_iter().map(|sh| robust_residual(&local, st, sh)).filter(|(o, _)| o.is_finite()).min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((_, r2)) = other.filter(|(o, _)| *o < obj) {
                 rr = high_pass(&r2, half);
             }
