@@ -313,7 +313,9 @@ fn main() {
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {
-        if vi < from {
+        // TIPFORGE_DISCOVERY_VARIATIONS=6,7: only those variations (their seeds as in the full run)
+        let picked = std::env::var("TIPFORGE_DISCOVERY_VARIATIONS").ok().map(|v| v.split(',').any(|x| x.trim().parse() == Ok(vi))).unwrap_or(true);
+        if vi < from || !picked {
             // the same seeds as in the full run
             seed += 10 * n * (effects.len() as u64 + 1);
             continue;

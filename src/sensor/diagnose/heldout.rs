@@ -41,19 +41,29 @@ pub(super) fn train_bic(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -
 /// them), fitted on the samples before its first step and its odd segments (for scoring the even
 /// ones), and on those before and its even segments (for the odd ones), by least squares on the
 /// residual of the fold's model without them. Returns (columns, values per parity).
+///
+/// A rest relaxation's amplitude is fitted (with the others) only on the samples before the trial's
+/// first unloading, then held while the offset and gains are fitted on all of the parity: a trial's
+/// rest state acts from its start, and the load's history (a peak's memory) acts only once the load
+/// has come down, so a per-trial decay fitted there cannot stand in for a shared effect of the
+/// unloading half (with its offset, it otherwise mimics a raised unloading branch).
 pub(super) fn trial_terms_halves(d: &Design, k: usize, tr: &Trial, xk: &[f64], cfg: &Config, hat: &Hat) -> (Vec<usize>, [Vec<f64>; 2]) {
     let mut cols = vec![k];
     if d.n_gains(cfg) > 0 {
         cols.extend((0..GAIN_COLS).map(|c| d.gain_col(cfg) + GAIN_COLS * k + c));
     }
-    if d.n_rests(cfg) > 0 {
+    let rest = d.n_rests(cfg) > 0;
+    if rest {
         cols.push(d.rest_col(cfg) + k);
     }
     let m = cols.len();
     let mut x = xk.to_vec();
     cols.iter().for_each(|&c| x[c] = 0.0);
-    let mut a = [DMatrix::<f64>::zeros(m, m), DMatrix::<f64>::zeros(m, m)];
-    let mut r = [DVector::<f64>::zeros(m), DVector::<f64>::zeros(m)];
+    // per parity: the normal equations over all its rows, and over those before the first unloading
+    let zero = || (DMatrix::<f64>::zeros(m, m), DVector::<f64>::zeros(m));
+    let mut all = [zero(), zero()];
+    let mut rising = [zero(), zero()];
+    let first_down = tr.segs.iter().position(|s| s.load < s.prev).unwrap_or(tr.segs.len());
     let mut buf = Vec::new();
     let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
     for j in 0..tr.t.len() {
@@ -63,23 +73,57 @@ pub(super) fn trial_terms_halves(d: &Design, k: usize, tr: &Trial, xk: &[f64], c
         }
         let e = tr.v[j] - predict(d, k, tr, tr.t[j], &x, cfg, hat, &mut buf);
         let c = DVector::from_iterator(m, cols.iter().map(|&q| buf[q]));
+        let (cc, ce) = (&c * c.transpose(), &c * e);
         // fitted on this segment's parity, used for the other's; before the first step, for both
         for p in 0..2 {
             if seg == 0 || p != seg % 2 {
-                a[p] += &c * c.transpose();
-                r[p] += &c * e;
+                all[p].0 += &cc;
+                all[p].1 += &ce;
+                if rest && seg <= first_down {
+                    rising[p].0 += &cc;
+                    rising[p].1 += &ce;
+                }
             }
         }
     }
     let vals = [0, 1].map(|p| {
-        let mut ap = a[p].clone();
-        let scale = 1e-9 * (0..m).map(|q| ap[(q, q)]).sum::<f64>().max(1e-300);
-        for q in 0..m {
-            ap[(q, q)] += scale;
+        if !rest {
+            return solve_small(&all[p].0, &all[p].1);
         }
-        ap.cholesky().map(|ch| ch.solve(&r[p]).iter().copied().collect()).unwrap_or_else(|| vec![0.0; m])
+        // the gains from all of it without the rest (on the rising part alone the level grows with
+        // time, as a decay falls: the two are confounded there); with them held, the offset and
+        // the rest's amplitude from the rising part; then the offset and gains on all of it with
+        // the amplitude held
+        let (a, r) = (&all[p].0, &all[p].1);
+        let others: Vec<usize> = (0..m - 1).collect();
+        let g = solve_sub(a, r, &others, &[]);
+        let held: Vec<(usize, f64)> = (1..m - 1).map(|q| (q, g[q])).collect();
+        let amp = solve_sub(&rising[p].0, &rising[p].1, &[0, m - 1], &held)[1];
+        let mut v = solve_sub(a, r, &others, &[(m - 1, amp)]);
+        v.push(amp);
+        v
     });
     (cols, vals)
+}
+
+/// The normal equations `a x = r` solved for the columns `free`, with the columns of `held` fixed
+/// at their values (the other columns left out); the free columns' values in their order.
+fn solve_sub(a: &DMatrix<f64>, r: &DVector<f64>, free: &[usize], held: &[(usize, f64)]) -> Vec<f64> {
+    let n = free.len();
+    let af = DMatrix::from_fn(n, n, |i, j| a[(free[i], free[j])]);
+    let rf = DVector::from_fn(n, |i, _| r[free[i]] - held.iter().map(|&(q, v)| a[(free[i], q)] * v).sum::<f64>());
+    solve_small(&af, &rf)
+}
+
+/// A small symmetric system solved by Cholesky with a relative ridge of 1e-9 (zeros when singular).
+fn solve_small(a: &DMatrix<f64>, r: &DVector<f64>) -> Vec<f64> {
+    let m = r.len();
+    let mut ap = a.clone();
+    let scale = 1e-9 * (0..m).map(|q| ap[(q, q)]).sum::<f64>().max(1e-300);
+    for q in 0..m {
+        ap[(q, q)] += scale;
+    }
+    ap.cholesky().map(|ch| ch.solve(r).iter().copied().collect()).unwrap_or_else(|| vec![0.0; m])
 }
 
 /// Fit on everything (rmse, BIC) and on folds (held-out RMSE).
