@@ -329,9 +329,10 @@ fn fsr402_like_single_step_names_creep_and_nothing_without_it() {
 
 /// Issue 16, item 1 (honest naming): a name stands alone when the drop-one test is decisive. The
 /// effects of the tuning family at 1σ each stand alone (no alternatives: the rule is not so loose
-/// that every finding gets one). At zero preload a 2 % hysteresis brings a weak extra second
-/// relaxation whose residual a drift explains about as well: it carries the alternative, with a
-/// paired z under Z_SEPARATE, is not of high confidence, and its sentence says so.
+/// that every finding gets one). At zero preload a 2 % hysteresis brings a weak extra slow
+/// relaxation (a second time constant; since creep is also tried superposed, that creep, which
+/// predicts it better) whose residual a drift explains about as well: it carries the alternative,
+/// with a paired z under Z_SEPARATE, is not of high confidence, and its sentence says so.
 #[test]
 fn a_name_stands_alone_only_when_the_data_separate_it() {
     use tipforge::sensor::diagnose::Z_SEPARATE;
@@ -353,13 +354,17 @@ fn a_name_stands_alone_only_when_the_data_separate_it() {
     let d = diagnose(&recs, &Default::default()).unwrap();
     let h = d.findings.iter().find(|f| f.effect == "hysteresis").expect("hysteresis named");
     assert!(h.alternatives.is_empty(), "{:?}", h.alternatives);
-    let f = d.findings.iter().find(|f| f.effect == "second_time_constant").expect("the weak extra second relaxation");
+    let f = d
+        .findings
+        .iter()
+        .find(|f| f.effect != "hysteresis")
+        .unwrap_or_else(|| panic!("the weak extra relaxation: {:?}", d.findings.iter().map(|f| (f.effect, &f.alternatives)).collect::<Vec<_>>()));
     let drift = f.alternatives.iter().find(|a| a.effect == "baseline_drift").unwrap_or_else(|| panic!("no drift alternative: {:?}", f.alternatives));
     assert_ne!(f.confidence, "high");
     // the drift in its place predicts about as well: within the separation and within 10 %
     assert!(drift.z_named_over_this.abs() < Z_SEPARATE && (drift.heldout_rmse / f.heldout_rmse_after - 1.0).abs() < 0.10, "{drift:?} vs {}", f.heldout_rmse_after);
     let s = f.ambiguity.as_deref().unwrap();
-    assert!(s.starts_with("second_time_constant or baseline_drift: this recording cannot tell them apart"), "{s}");
+    assert!(s.starts_with(&format!("{} or baseline_drift: this recording cannot tell them apart", f.effect)), "{s}");
 }
 
 /// Issue 16, item 5: a resistance recording without divider metadata (clean simulated data, the
@@ -457,3 +462,36 @@ fn fit_on_an_actuators_ramps_recovers_the_first_order_time_constants() {
     }
 }
 
+/// Issue 15, item 3, and issue 16, item 1: creep that carries over between steps (family A's
+/// superposed creep: every change's own log-time creep keeps going). The forward selection offers
+/// the restarting creep, which gains nothing here; a second relaxation of 25–40 s took the name,
+/// with a drift or hysteresis beside it at 3σ, and stood alone (family A's "creep superposed"
+/// variation: 0.00). Now creep is put in each named term's place in both forms, and one effect may
+/// stand in for two: at 3σ creep is named, superposed and alone (the merge and swap are recorded
+/// decisions); at 1.85σ it is named or it is an alternative of the relaxation found. Seeds
+/// 98 000–98 200, not looked at before (the rule was worked out on 97 000–97 200 and the
+/// discovery bench's tuning seeds).
+#[test]
+fn creep_that_carries_over_is_named_creep_or_its_alternative() {
+    for (per_decade, strict) in [(0.0044, true), (0.0027, false)] {
+        for seed in [98_000u64, 98_100, 98_200] {
+            let set = |s: &mut SensorParams| {
+                s.effects.creep_per_decade = per_decade;
+                s.effects.creep_superposed = true;
+            };
+            let d = diagnose(&case(seed, set), &Default::default()).unwrap();
+            let found: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
+            let superposed = |p: &serde_json::Value| p.get("superposed").and_then(|v| v.as_bool()) == Some(true);
+            if strict {
+                assert_eq!(found, vec!["creep"], "seed {seed}: {:?}", d.decisions);
+                assert!(superposed(&d.findings[0].term.params), "seed {seed}");
+                assert!(d.decisions.iter().any(|x| x.candidate == "creep" && x.accepted), "seed {seed}: {:?}", d.decisions);
+            } else {
+                let named = d.findings.iter().any(|f| f.effect == "creep" && superposed(&f.term.params));
+                let alternative = d.findings.iter().any(|f| f.alternatives.iter().any(|a| a.effect == "creep" && superposed(&a.params)));
+                assert!(named || alternative, "seed {seed}: {:?}", d.findings.iter().map(|f| (f.effect, &f.alternatives)).collect::<Vec<_>>());
+            }
+            assert!(d.final_.heldout_rmse < 0.7 * d.baseline.heldout_rmse, "seed {seed}");
+        }
+    }
+}

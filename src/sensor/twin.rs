@@ -102,7 +102,9 @@ fn effects(t: &mut String, d: &Diagnosis) {
         match f.effect {
             "creep" => {
                 if let Some(v) = num(p, "per_decade_fraction") {
-                    let _ = writeln!(t, "[effects.creep]\nper_decade = {}\ntime_s = {}", fmt(v), fmt(num(p, "time_s").unwrap_or(1.0)));
+                    // restarting at every step, or superposed over the load history
+                    let superposed = p.get("superposed").and_then(|b| b.as_bool()).unwrap_or(false);
+                    let _ = writeln!(t, "[effects.creep]\nper_decade = {}\ntime_s = {}\nsuperposed = {superposed}", fmt(v), fmt(num(p, "time_s").unwrap_or(1.0)));
                 }
             }
             "hysteresis" => {

@@ -85,6 +85,9 @@ pub(super) struct Config {
     pub(super) drift_tau: Option<f64>,
     /// The clip is an amplifier's rail before the noise (its plateau is the rail ± the noise).
     pub(super) clip_rail: bool,
+    /// Creep superposed over the load history (every change's own log-time creep keeps going),
+    /// not restarting at every step.
+    pub(super) creep_superposed: bool,
 }
 
 /// What drives the relaxation spectrum's kernels: the load as the spectrum applies it, a ramp of
@@ -155,6 +158,7 @@ impl Config {
             rest_tau: None,
             drift_tau: None,
             clip_rail: false,
+            creep_superposed: false,
         }
     }
     pub(super) fn fixed(&self, i: usize, s: usize) -> Option<&FixedStep> {
@@ -309,6 +313,7 @@ impl Design {
         let steps = TrialSteps { i, tr, cfg, hat, l0: hat.level_of(self.loads[0]), top: hat.max_level() };
         for e in &cfg.effects {
             match e {
+                Effect::Creep if cfg.creep_superposed => out[col] = cur.map(|s| catalogue::creep::superposed_column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Hysteresis => out[col] = cur.map(|s| catalogue::hysteresis::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, landed, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),

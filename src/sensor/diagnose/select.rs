@@ -197,12 +197,45 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
     let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, hat, mut findings, mut decisions, nuisances, exact: round0_exact } =
         select(&b.base_cfg, clean.clone(), xc.to_vec(), b.hat.clone(), &Ctx { d, trials, hat: &Hat::default(), clip, clip_steps, med_tau }, report);
     let mut spectrum_exact: Option<Exact> = None;
-    // honest naming: the other effects that explain each finding's residual about as well
-    for (e, alts) in alternatives::alternatives(&cur, &cur_score, &Ctx { d, trials, hat: &hat, clip, clip_steps, med_tau }) {
-        if let Some(f) = findings.iter_mut().find(|f| f.effect == e.name()) {
-            f.alternatives = alts;
-            alternatives::apply(f);
+    // honest naming: the other effects that explain each finding's residual about as well; a name
+    // goes to the best explanation (an effect in a form the forward step does not offer may
+    // predict clearly better in the named one's place: it takes the name)
+    // (and one effect that stands in for two with the same evidence takes both their places)
+    let actx = Ctx { d, trials, hat: &hat, clip, clip_steps, med_tau };
+    let passes = 2 * findings.len();
+    for pass in 0..=passes {
+        let alts = alternatives::alternatives(&cur, &cur_score, &actx);
+        let swap = alts.iter().filter_map(|(e, _, b)| b.as_ref().map(|b| (*e, b))).max_by(|a, b| a.1.z.total_cmp(&b.1.z));
+        let merged = if swap.is_none() { alternatives::merged(&cur, &cur_score, &actx) } else { None };
+        let change = match (swap, &merged) {
+            (Some((named, b)), _) => Some((vec![named], b)),
+            (None, Some((two, b))) => Some((two.to_vec(), b)),
+            (None, None) => None,
+        };
+        if let (Some((replaced, b)), true) = (change, pass < passes) {
+            findings.retain(|f| replaced[1..].iter().all(|e| f.effect != e.name()));
+            rename(&mut findings, replaced[0], b, &cur_score, d, &hat);
+            decisions.push(Decision {
+                step: decisions.last().map(|x| x.step + 1).unwrap_or(0),
+                candidate: b.effect.name(),
+                heldout_rmse: b.score.heldout_rmse,
+                gain: (cur_score.heldout_rmse - b.score.heldout_rmse) / cur_score.heldout_rmse.max(1e-300),
+                z: b.z,
+                delta_bic: b.score.bic - cur_score.bic,
+                accepted: true,
+            });
+            cur = b.cfg.clone();
+            cur_score = b.score.clone();
+            cur_x = b.x.clone();
+            continue;
         }
+        for (e, alts, _) in alts {
+            if let Some(f) = findings.iter_mut().find(|f| f.effect == e.name()) {
+                f.alternatives = alts;
+                alternatives::apply(f);
+            }
+        }
+        break;
     }
     // the relaxation spectrum (issue 15): the exact forms of relaxation (creep, one second time
     // constant) give way to a spectrum over every change when it predicts the held-out data
@@ -228,6 +261,23 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         }
     }
     Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, exact: spectrum_exact }
+}
+
+/// The finding named `named` given to the better explanation `b` in its place: its name, term,
+/// explanation and evidence (its windows are where the residual was located, and stay).
+fn rename(findings: &mut [Finding], named: Effect, b: &alternatives::Better, cur_score: &Score, d: &Design, hat: &Hat) {
+    let Some(f) = findings.iter_mut().find(|f| f.effect == named.name()) else { return };
+    f.effect = b.effect.name();
+    f.explanation = match b.effect {
+        Effect::Creep if b.cfg.creep_superposed => catalogue::creep::SUPERPOSED_EXPLANATION.to_string(),
+        Effect::SecondTimeConstant => b.cfg.drive.explanation().to_string(),
+        e => e.explanation().to_string(),
+    };
+    f.term = Term { name: format!("{}_term", b.effect.name()), params: term_params(d, &b.cfg, &b.x, b.effect, hat) };
+    f.delta_bic += b.score.bic - cur_score.bic;
+    f.heldout_rmse_after = b.score.heldout_rmse;
+    let gain = (f.heldout_rmse_before - f.heldout_rmse_after) / f.heldout_rmse_before.max(1e-300);
+    f.confidence = confidence(f.delta_bic, gain);
 }
 
 #[cfg(test)]

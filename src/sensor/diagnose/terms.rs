@@ -149,6 +149,9 @@ pub(super) fn without(cur: &Config, idx: usize) -> Config {
     if e == Effect::BaselineDrift {
         c.drift_tau = None;
     }
+    if e == Effect::Creep {
+        c.creep_superposed = false;
+    }
     c
 }
 
@@ -181,6 +184,7 @@ mod tests {
                 (&base.effects, base.clip, &base.tau_fixed, &base.restart, base.rest_tau, base.drift_tau),
                 "{e:?}"
             );
+            assert_eq!((back.creep_superposed, back.clip_rail), (false, false), "{e:?}");
         }
     }
 }
