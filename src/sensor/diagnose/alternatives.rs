@@ -110,6 +110,13 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
                 // it must explain the residual itself, as every alternative does
                 let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
                 let z_sep = paired_z(&s.units, &cur_score.units);
+                // per trial it predicts clearly better under a nuisance's own rule (gain ≥
+                // MIN_ROBUST_GAIN, paired z ≥ MIN_Z): not a drift of the read-out but each
+                // trial's rest state
+                let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
+                if explains && z_sep <= -MIN_Z && gain >= MIN_ROBUST_GAIN && better.as_ref().is_none_or(|b| -z_sep > b.z) {
+                    better = Some(Better { effect: Effect::RestRelaxation, cfg: c.clone(), score: s.clone(), x: x.clone(), z: -z_sep });
+                }
                 if explains && z_sep < Z_SEPARATE {
                     alts.push(Alternative {
                         effect: Effect::RestRelaxation.name(),
@@ -129,9 +136,9 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
 
 /// One effect that stands in for two named ones: both terms dropped and the effect (neither of
 /// them; creep in either form) put in their place. Taken when it explains the residual against the
-/// model without both (lower held-out error, paired z ≥ MIN_Z) and the model with both does not
-/// predict the held-out units better by a paired z of Z_SEPARATE: one name with the same evidence
-/// as two (a creep that carries over was split into a second relaxation and a drift, each of which
+/// model without both (lower held-out error, paired z ≥ MIN_Z), predicts the held-out data at least
+/// as well as the model with both, and that model does not predict the held-out units better by a
+/// paired z of Z_SEPARATE: one name with the same evidence as two (a creep that carries over was split into a second relaxation and a drift, each of which
 /// listed it as its alternative). The best such, with the two it replaces (in `cur`'s order).
 pub(super) fn merged(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Option<([Effect; 2], Better)> {
     let physics = |e: &Effect| CATALOGUE.contains(e) && !matches!(e, Effect::HandlingSpikes | Effect::Relaxation | Effect::Saturation);
@@ -145,7 +152,7 @@ pub(super) fn merged(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Option<([Eff
                 let Some((c, s, x)) = in_place(e, &wo, ctx) else { continue };
                 let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
                 let z_two_over_one = paired_z(&s.units, &cur_score.units);
-                if explains && z_two_over_one < Z_SEPARATE && best.as_ref().is_none_or(|b| s.heldout_rmse < b.1.score.heldout_rmse) {
+                if explains && z_two_over_one < Z_SEPARATE && s.heldout_rmse <= cur_score.heldout_rmse && best.as_ref().is_none_or(|b| s.heldout_rmse < b.1.score.heldout_rmse) {
                     best = Some(([cur.effects[i], cur.effects[j]], Better { effect: e, cfg: c, score: s, x, z: -z_two_over_one }));
                 }
             }

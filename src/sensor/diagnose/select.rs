@@ -194,7 +194,7 @@ fn backward(
 pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>, clip_steps: &ClipSteps, actuator: bool) -> Selected {
     let (d, trials, report) = (&b.d, b.trials.as_slice(), &b.report);
     let med_tau = median_tau(&b.trials);
-    let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, hat, mut findings, mut decisions, nuisances, exact: round0_exact } =
+    let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, hat, mut findings, mut decisions, mut nuisances, exact: round0_exact } =
         select(&b.base_cfg, clean.clone(), xc.to_vec(), b.hat.clone(), &Ctx { d, trials, hat: &Hat::default(), clip, clip_steps, med_tau }, report);
     let mut spectrum_exact: Option<Exact> = None;
     // honest naming: the other effects that explain each finding's residual about as well; a name
@@ -214,7 +214,16 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         };
         if let (Some((replaced, b)), true) = (change, pass < passes) {
             findings.retain(|f| replaced[1..].iter().all(|e| f.effect != e.name()));
-            rename(&mut findings, replaced[0], b, &cur_score, d, &hat);
+            if b.effect == Effect::RestRelaxation {
+                // a drift that is each trial's rest state: a nuisance, not a finding
+                let before = findings.iter().find(|f| f.effect == replaced[0].name()).map(|f| f.heldout_rmse_before).unwrap_or(f64::NAN);
+                findings.retain(|f| f.effect != replaced[0].name());
+                let mut nt = nuisance::as_nuisance(b.effect, term_params(d, &b.cfg, &b.x, b.effect, &hat), &cur_score, &b.score, b.z);
+                nt.heldout_rmse_before = before;
+                nuisances.push(nt);
+            } else {
+                rename(&mut findings, replaced[0], b, &cur_score, d, &hat);
+            }
             decisions.push(Decision {
                 step: decisions.last().map(|x| x.step + 1).unwrap_or(0),
                 candidate: b.effect.name(),
