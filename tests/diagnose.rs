@@ -496,3 +496,26 @@ fn creep_that_carries_over_is_named_creep_or_its_alternative() {
         assert!(strict >= strict_at_least, "{per_decade}: creep named alone in {strict} of 3");
     }
 }
+
+/// Issue 15 (the trials' nuisances take the effects' place): a per-trial rest relaxation (how long
+/// each trial's sensor rested) is validated inside its held-out trial on the part before the first
+/// unloading, where a peak's memory does not act yet. Fitted on every other step of the trial, with
+/// the trial's offset it mimicked a raised unloading branch, took hysteresis' place and left it
+/// under the gate (family A's trial-nuisance variation, report seeds: hysteresis 0.25). With the
+/// lab's nuisances (gains ±3 %, rests up to 2σ with τ 100 s, AR noise), a 1.5σ hysteresis is named
+/// on every seed (stop 30's code: 2 of these 4). Seeds 99 000–99 300, not looked at before.
+#[test]
+fn the_trials_rest_states_do_not_take_hysteresis_place() {
+    for seed in [99_000u64, 99_100, 99_200, 99_300] {
+        let set = |s: &mut SensorParams| {
+            s.nuisance.gain_jitter = 0.03;
+            s.nuisance.rest_v = 2.0 * s.noise_v;
+            s.nuisance.rest_tau_s = 100.0;
+            s.nuisance.noise_ar_rho = 0.95;
+            s.nuisance.noise_ar_share = 0.25;
+            s.effects.hysteresis = 8.278e-3;
+        };
+        let d = diagnose(&case(seed, set), &Default::default()).unwrap();
+        assert!(d.findings.iter().any(|f| f.effect == "hysteresis"), "seed {seed}: {:?} {:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>(), d.decisions);
+    }
+}
