@@ -27,6 +27,13 @@ pub struct Score {
     pub blocks: usize,
 }
 
+impl Score {
+    /// The share by which this model's held-out RMSE is lower than `before`'s.
+    pub(super) fn gain_over(&self, before: &Score) -> f64 {
+        (before.heldout_rmse - self.heldout_rmse) / before.heldout_rmse.max(1e-300)
+    }
+}
+
 /// BIC of the fit on everything (no folds): what shape parameters are chosen by.
 pub(super) fn train_bic(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Option<(f64, Vec<f64>)> {
     let rows = all_rows(trials);

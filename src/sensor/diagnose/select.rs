@@ -228,7 +228,7 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
                 step: decisions.last().map(|x| x.step + 1).unwrap_or(0),
                 candidate: b.effect.name(),
                 heldout_rmse: b.score.heldout_rmse,
-                gain: (cur_score.heldout_rmse - b.score.heldout_rmse) / cur_score.heldout_rmse.max(1e-300),
+                gain: b.score.gain_over(&cur_score),
                 z: b.z,
                 delta_bic: b.score.bic - cur_score.bic,
                 accepted: true,
