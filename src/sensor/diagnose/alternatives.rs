@@ -173,20 +173,60 @@ pub(super) fn merged(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Option<([Eff
 /// Effect `e` put in the model `wo` (the named term dropped), scored. Creep is tried in both its
 /// forms, restarting at every step and superposed over the load history (every change's own creep
 /// keeps going: a creep that carries over from step to step), and the one that predicts held-out
-/// data better stands in. The forward selection keeps the restarting form: superposed, a creep
-/// takes the place of a second relaxation that does not settle within the holds (family A's
-/// actuator variation: second τ 0.88 → 0.25), and the two are what this test is for — the name
-/// the data cannot separate from the one chosen.
+/// data better stands in (as in the forward step, `select::gated_form`).
 fn in_place(e: Effect, wo: &Config, ctx: &Ctx) -> Option<(Config, Score, Vec<f64>)> {
     let c = candidate(e, wo, ctx)?;
     let forms = if e == Effect::Creep {
-        let mut sup = c.clone();
-        sup.creep_superposed = true;
-        vec![c, sup]
+        [false, true]
+            .iter()
+            .map(|&sup| {
+                let mut f = c.clone();
+                f.creep_superposed = sup;
+                f
+            })
+            .collect()
     } else {
         vec![c]
     };
     forms.into_iter().filter_map(|c| score(ctx.d, ctx.trials, &c, ctx.hat).map(|(s, x)| (c, s, x))).min_by(|a, b| a.1.heldout_rmse.total_cmp(&b.1.heldout_rmse))
+}
+
+/// How many of a second relaxation's time constants a hold must last for the recording to show it
+/// settle: a relaxation slower than half the holds keeps going through every hold, as creep does.
+pub(super) const SETTLES_IN_HOLD: f64 = 2.0;
+
+/// Creep and a second relaxation that this recording cannot tell apart (one named, the other its
+/// alternative): the name goes to what the holds show. A second time constant is told from creep
+/// only by settling within the holds (SETTLES_IN_HOLD τ2 at most the median hold); a relaxation that
+/// does not settle within them is what creep is, "a creep that never settles". The finding to
+/// rename and the model with the other in its place, when the holds say the other.
+pub(super) fn settled(cur: &Config, alts: &[(Effect, Vec<Alternative>, Option<Better>)], ctx: &Ctx) -> Option<(Effect, Better)> {
+    let hold = median_hold_s(ctx.trials);
+    for (named, list, _) in alts {
+        let other = match named {
+            Effect::Creep => Effect::SecondTimeConstant,
+            Effect::SecondTimeConstant => Effect::Creep,
+            _ => continue,
+        };
+        let Some(alt) = list.iter().find(|a| a.effect == other.name()) else { continue };
+        let idx = cur.effects.iter().position(|e| e == named)?;
+        let (c, s, x) = in_place(other, &without(cur, idx), ctx)?;
+        let tau2 = if other == Effect::SecondTimeConstant { c.tau2 } else { cur.tau2 };
+        let settles = SETTLES_IN_HOLD * tau2 <= hold;
+        if settles == (other == Effect::SecondTimeConstant) {
+            return Some((*named, Better { effect: other, cfg: c, score: s, x, z: -alt.z_named_over_this }));
+        }
+    }
+    None
+}
+
+/// The median time from one step's onset to the next (s); infinite with one step.
+fn median_hold_s(trials: &[Trial]) -> f64 {
+    let mut h: Vec<f64> = trials.iter().flat_map(|t| t.segs.windows(2).map(|w| w[1].t0 - w[0].t0)).collect();
+    if h.is_empty() {
+        return f64::INFINITY;
+    }
+    crate::sensor::preprocess::median(&mut h)
 }
 
 /// A finding with its alternatives set: the sentence, and a confidence of at most medium when the
