@@ -120,16 +120,18 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) || e == Effect::Relaxation {
             continue;
         }
-        let here = Ctx { d, trials, hat, clip, clip_steps, med_tau };
-        let Some(c) = candidate(e, cur, &here) else { continue };
-        // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN
-        let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { 0.0 };
-        let Some((c, s, x, gain, dbic, z)) = gated_form(e, c, (cur, cur_score), least, &here) else { continue };
+        let Some(c) = candidate(e, cur, &Ctx { d, trials, hat, clip, clip_steps, med_tau }) else { continue };
+        let Some((s, x)) = score(d, trials, &c, hat) else { continue };
+        let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
+        let dbic = s.bic - cur_score.bic;
+        let z = change_z(e == Effect::Saturation, cur_score, &s, &clip_steps.units);
         decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
         if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
             exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
         }
-        // a term fitted per trial must beat the same term shared by the trials (the guide's
+        // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN
+        let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { 0.0 };
+        // and a term fitted per trial must beat the same term shared by the trials (the guide's
         // two hypotheses): a rest relaxation whose trials agree is a warm-up of the read-out,
         // the drift's
         // (checked last: it is a cross-validated score of its own)
@@ -139,37 +141,6 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         }
     }
     (best, exact)
-}
-
-/// A candidate's held-out gain, ΔBIC and paired z against `cur` (scored `cur_score`).
-type Gated = (Config, Score, Vec<f64>, f64, f64, f64);
-
-/// Candidate `c` of effect `e` scored against `cur`: (model, score, solution, gain, ΔBIC, z). Creep
-/// is scored in both its forms, restarting at every step and superposed over the load history
-/// (every change's own creep keeps going: it carries over from step to step), and the form the
-/// gate passes is taken — the better held out when both or neither do. (Chosen on the training fit
-/// instead, a superposed creep that fails the gate hid a restarting creep that passes it: family
-/// A's creep under the trial nuisances 0.62 → 0.38, report seeds.)
-fn gated_form(e: Effect, c: Config, (cur, cur_score): (&Config, &Score), least: f64, ctx: &Ctx) -> Option<Gated> {
-    let (d, trials, hat) = (ctx.d, ctx.trials, ctx.hat);
-    let forms = if e == Effect::Creep && !cur.effects.contains(&e) {
-        let mut sup = c.clone();
-        sup.creep_superposed = true;
-        vec![c, sup]
-    } else {
-        vec![c]
-    };
-    let passes = |g: &Gated| g.3 > least && g.5 >= MIN_Z && g.4 <= MIN_DBIC;
-    forms
-        .into_iter()
-        .filter_map(|c| {
-            let (s, x) = score(d, trials, &c, hat)?;
-            let gain = s.gain_over(cur_score);
-            let dbic = s.bic - cur_score.bic;
-            let z = change_z(e == Effect::Saturation, cur_score, &s, &ctx.clip_steps.units);
-            Some((c, s, x, gain, dbic, z))
-        })
-        .max_by(|a, b| passes(a).cmp(&passes(b)).then(b.1.heldout_rmse.total_cmp(&a.1.heldout_rmse)))
 }
 
 /// The backward check: every kept term must still pass the rule given all the others (a term taken
