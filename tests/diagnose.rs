@@ -498,11 +498,11 @@ fn creep_that_carries_over_is_named_creep_or_its_alternative() {
 }
 
 /// Issue 15 (creep that carries over) and 16 (honest naming): creep and a second relaxation that
-/// a recording cannot tell apart are named by what the holds show. A superposed creep of 0.15 % of the level per decade (20 s holds, where its best
-/// single τ2 is longer than half a hold) is named creep alone, where stop 31's code named it a
-/// second time constant on each of these seeds (creep its alternative); a second relaxation of 8 s
-/// (1σ), which settles within the 20 s holds, stays a second time constant. Seeds 97 000–97 500,
-/// not looked at before.
+/// a recording cannot tell apart are named by what the holds show. A superposed creep of 0.15 % of
+/// the level per decade (20 s holds; its best single τ2 is longer than a hold) is named creep alone,
+/// where stop 31's code named it a second time constant on each of these seeds (creep its
+/// alternative); a second relaxation of 8 s (1σ), which settles within the 20 s holds, stays a
+/// second time constant. Seeds 97 000–97 500, not looked at before.
 #[test]
 fn a_relaxation_is_named_by_whether_the_holds_show_it_settle() {
     for seed in [97_000u64, 97_100, 97_200] {
