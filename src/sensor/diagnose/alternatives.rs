@@ -148,7 +148,8 @@ fn keep_if_clearly_better(better: &mut Option<Better>, e: Effect, (c, s, x): (&C
 /// model without both (lower held-out error, paired z ≥ MIN_Z), predicts the held-out data at least
 /// as well as the model with both, and that model does not predict the held-out units better by a
 /// paired z of Z_SEPARATE: one name with the same evidence as two (a creep that carries over was
-/// split into a second relaxation and a drift, each of which listed it as its alternative). The best such, with the two it replaces (in `cur`'s order).
+/// split into a second relaxation and a drift, each of which listed it as its alternative). The
+/// best such, with the two it replaces (in `cur`'s order).
 pub(super) fn merged(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Option<([Effect; 2], Better)> {
     let physics = |e: &Effect| CATALOGUE.contains(e) && !matches!(e, Effect::HandlingSpikes | Effect::Relaxation | Effect::Saturation);
     let named: Vec<usize> = (0..cur.effects.len()).filter(|&i| physics(&cur.effects[i])).collect();
@@ -180,14 +181,9 @@ pub(super) fn merged(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Option<([Eff
 fn in_place(e: Effect, wo: &Config, ctx: &Ctx) -> Option<(Config, Score, Vec<f64>)> {
     let c = candidate(e, wo, ctx)?;
     let forms = if e == Effect::Creep {
-        [false, true]
-            .iter()
-            .map(|&sup| {
-                let mut f = c.clone();
-                f.creep_superposed = sup;
-                f
-            })
-            .collect()
+        let mut sup = c.clone();
+        sup.creep_superposed = true;
+        vec![c, sup]
     } else {
         vec![c]
     };

@@ -221,12 +221,7 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         if let (Some((replaced, b)), true) = (change, pass < passes) {
             findings.retain(|f| replaced[1..].iter().all(|e| f.effect != e.name()));
             if b.effect == Effect::RestRelaxation {
-                // a drift that is each trial's rest state: a nuisance, not a finding
-                let before = findings.iter().find(|f| f.effect == replaced[0].name()).map(|f| f.heldout_rmse_before).unwrap_or(f64::NAN);
-                findings.retain(|f| f.effect != replaced[0].name());
-                let mut nt = nuisance::as_nuisance(b.effect, term_params(d, &b.cfg, &b.x, b.effect, &hat), &cur_score, &b.score, b.z);
-                nt.heldout_rmse_before = before;
-                nuisances.push(nt);
+                as_rest_state(&mut findings, &mut nuisances, replaced[0], b, &cur_score, d, &hat);
             } else {
                 rename(&mut findings, replaced[0], b, &cur_score, d, &hat);
             }
@@ -276,6 +271,16 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         }
     }
     Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, exact: spectrum_exact }
+}
+
+/// The finding named `named` (a drift) that is each trial's rest state `b`: a nuisance, not a
+/// finding; its held-out RMSE before is the finding's.
+fn as_rest_state(findings: &mut Vec<Finding>, nuisances: &mut Vec<NuisanceTerm>, named: Effect, b: &alternatives::Better, cur_score: &Score, d: &Design, hat: &Hat) {
+    let before = findings.iter().find(|f| f.effect == named.name()).map(|f| f.heldout_rmse_before).unwrap_or(f64::NAN);
+    findings.retain(|f| f.effect != named.name());
+    let mut nt = nuisance::as_nuisance(b.effect, term_params(d, &b.cfg, &b.x, b.effect, hat), cur_score, &b.score, b.z);
+    nt.heldout_rmse_before = before;
+    nuisances.push(nt);
 }
 
 /// The finding named `named` given to the better explanation `b` in its place: its name, term,
