@@ -190,6 +190,8 @@ pub(super) struct Built {
     pub(super) base: Score,
     pub(super) xb: Vec<f64>,
     pub(super) has_spikes: bool,
+    /// The window around each onset that the hand's touch takes, excluded (`touch`).
+    pub(super) touch: Touch,
 }
 
 /// Stage 1, the baseline: part 1's per-step fits as trials, the design over their loads, the levels
@@ -208,8 +210,17 @@ pub(super) fn build(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline
         }
     }
     let d = design(&report, &trials, sim.is_some())?;
-    let hat = levels(recs, sim, &d, &trials)?;
+    let mut hat = levels(recs, sim, &d, &trials)?;
     let base_cfg = Config::first_order();
+    // the hand's touch before each onset: handling, neither fitted nor scored (none where the
+    // load's ramp is modelled)
+    let touch = if opts.pre.ramp.is_none() { touch::window(&d, &trials, &base_cfg, &hat) } else { Touch::default() };
+    if touch.any() {
+        for tr in trials.iter_mut().chain(given_trials.iter_mut().flatten()) {
+            *tr = touch::without_touch(tr, touch);
+        }
+        hat = levels(recs, sim, &d, &trials)?;
+    }
     // fitted to the series as given (with the steps fitted to it), scored on the series without
     // the spikes (with the same steps); the diagnosis works on the latter, and the spikes are
     // reported and excluded
@@ -220,7 +231,7 @@ pub(super) fn build(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline
     let base_fit: Vec<Trial> =
         if has_spikes { base_eval.iter().map(|tr| Trial { t: tr.given_t.clone(), v: tr.given_v.clone(), ..tr.clone() }).collect() } else { base_eval.clone() };
     let (base, xb) = score_on(&d, &base_fit, &base_eval, &base_cfg, &hat)?;
-    Some(Built { report, trials, d, hat, base_cfg, base_eval, base_fit, base, xb, has_spikes })
+    Some(Built { report, trials, d, hat, base_cfg, base_eval, base_fit, base, xb, has_spikes, touch })
 }
 
 /// The trials as part 1 fits the series as given (handling spikes left in), when their steps are

@@ -20,8 +20,14 @@ pub(super) fn sensor(f: impl Fn(&mut SensorParams)) -> SensorParams {
 
 /// Three trials (seeds `seed0`, +1, +2) of the 0–1000 g protocol, and their noise-free truth.
 pub(super) fn recs_and_truth(seed0: u64, f: impl Fn(&mut SensorParams)) -> (Vec<Recording>, Vec<crate::sensor::sim::Truth>) {
+    recs_and_truth_with(seed0, f, |_| {})
+}
+
+/// As [`recs_and_truth`], with the protocol changed by `g`.
+pub(super) fn recs_and_truth_with(seed0: u64, f: impl Fn(&mut SensorParams), g: impl Fn(&mut ProtocolParams)) -> (Vec<Recording>, Vec<crate::sensor::sim::Truth>) {
     let s = sensor(f);
-    let p = ProtocolParams::from_source(&load("protocol-1000g.toml")).unwrap();
+    let mut p = ProtocolParams::from_source(&load("protocol-1000g.toml")).unwrap();
+    g(&mut p);
     (0..3).map(|k| crate::sensor::sim::simulate(&s, &p, 20.0, None, seed0 + k)).unzip()
 }
 
@@ -30,9 +36,21 @@ pub(super) fn recs(seed0: u64, f: impl Fn(&mut SensorParams)) -> Vec<Recording> 
     recs_and_truth(seed0, f).0
 }
 
+/// Three trials of the 0–1000 g protocol changed by `g`.
+pub(super) fn recs_with(seed0: u64, f: impl Fn(&mut SensorParams), g: impl Fn(&mut ProtocolParams)) -> Vec<Recording> {
+    recs_and_truth_with(seed0, f, g).0
+}
+
 /// The baseline stage on `recs`, with the default options (loads placed by hand).
 pub(super) fn built(recs: &[Recording]) -> Built {
     build(recs, &Options::default(), None).expect("the baseline is built")
+}
+
+/// The baseline stage on `recs`, with the default options changed by `f`.
+pub(super) fn built_with_options(recs: &[Recording], f: impl Fn(&mut Options)) -> Built {
+    let mut o = Options::default();
+    f(&mut o);
+    build(recs, &o, None).expect("the baseline is built")
 }
 
 /// The context the selection's stages take, on a built baseline.

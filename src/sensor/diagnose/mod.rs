@@ -48,6 +48,7 @@ mod report;
 mod select;
 mod spectrum;
 mod terms;
+mod touch;
 
 use super::analyze::{self, Options, Prepared, Report};
 use super::catalogue::second_time_constant::Drive;
@@ -58,6 +59,7 @@ use baseline::*;
 use clip::*;
 use first_order::*;
 use gate::*;
+use touch::Touch;
 use heldout::*;
 use input::*;
 use locate::*;

@@ -46,6 +46,17 @@ pub struct Baseline {
     /// once per data set by the baseline's held-out RMSE); absent when the load changes at once.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub load_ramp: Option<crate::sensor::preprocess::Ramp>,
+    /// The window around every step's onset that a hand's touch takes (measured on the
+    /// baseline's residuals; its samples neither fitted nor scored); absent when there is none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub touch_window: Option<TouchWindow>,
+}
+
+/// The window around every step's onset that a hand's touch takes.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct TouchWindow {
+    pub before_onset_s: f64,
+    pub after_onset_s: f64,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -282,7 +293,7 @@ pub(super) fn diagnosis(
     piled: Option<f64>,
     refit_always: bool,
 ) -> Diagnosis {
-    let Built { report, trials, d, hat: hat0, base_cfg, base_eval, base_fit, base, xb, .. } = b;
+    let Built { report, trials, d, hat: hat0, base_cfg, base_eval, base_fit, base, xb, touch, .. } = b;
     let Selected { cfg: cur, score: cur_score, x: cur_x, hat, mut findings, decisions, mut nuisances, exact: spectrum_exact } = ch;
     // a clip reported on its plateau alone is one whose samples pile up (`piled`), never a rail's
     findings.extend(reported_only(&trials, &cur, &cur_score, piled, &report, (&base, clean)));
@@ -296,8 +307,16 @@ pub(super) fn diagnosis(
         n.params = term_params(&d, &cur, &cur_x, Effect::RestRelaxation, &hat);
     }
     let final_names = final_names(&cur, &mut findings, spectrum_exact.as_ref());
-    let notes =
+    let mut notes: Vec<String> =
         report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after))).collect();
+    if touch.any() {
+        notes.push(format!(
+            "the hand's touch: from {:.1} s before each step's onset to {:.1} s after it the data leave the model by more than {} × the holds' mean square (the load placed, pressed, let go); those samples are handling, neither fitted nor scored",
+            touch.before_s,
+            touch.after_s,
+            touch::EXCESS
+        ));
+    }
     Diagnosis {
         advice: Vec::new(),
         advice_notes: Vec::new(),
@@ -316,6 +335,7 @@ pub(super) fn diagnosis(
             heldout_rmse: base.heldout_rmse,
             bic: base.bic,
             load_ramp: opts.pre.ramp.filter(|r| r.duration_s > 0.0 && sim.is_none()),
+            touch_window: touch.any().then_some(TouchWindow { before_onset_s: touch.before_s, after_onset_s: touch.after_s }),
         },
         final_: Final {
             effects: final_names,

@@ -1,0 +1,145 @@
+//! The hand's touch before each step (part of stage 1, the baseline). When a weight is placed by
+//! hand, the load starts to change before the step's onset — the hand lowers it, presses on it,
+//! lets go — differently at every placement. No shared term models that, and its misfit, a few
+//! tenths of a second per step, can outweigh a whole hold's worth of a 1σ effect in the held-out
+//! error (family A's hand-touch tuning cases: 7 % of the samples, two thirds of the squared error).
+//!
+//! The window the touch takes is measured, not assumed: the baseline's residuals are aligned at
+//! every step's onset and pooled over steps and trials in bins of `BIN_S`; the touch is the run of
+//! bins just before the onset whose mean square exceeds `EXCESS` times that of the holds' later
+//! part (the bins from `LOOK_S / 2` to `LOOK_S` before the onsets). Its samples are handling, as
+//! spikes are: neither fitted nor scored, by the baseline and the improved model alike. Where the
+//! load's ramp is modelled (an actuator's travel) there is no window; where nothing departs, none.
+
+use super::*;
+
+/// The bins before the onsets are touch while their mean square exceeds this many times the
+/// holds' (about four standard errors of a bin pooled over 30 steps).
+pub(super) const EXCESS: f64 = 4.0;
+/// Width of a bin (s), at least one sample interval.
+const BIN_S: f64 = 0.1;
+/// How far before the onsets the residuals are looked at (s), at most half the shortest step.
+const LOOK_S: f64 = 3.0;
+/// A touch spans at least this many bins before the onsets.
+const MIN_BINS: usize = 2;
+/// Fewer steps than this pooled: no window is measured.
+const MIN_STEPS: usize = 4;
+
+/// The window around each onset that the hand's touch takes.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct Touch {
+    /// Before the onset (s).
+    pub(super) before_s: f64,
+    /// After it (s): the response still carrying the hand's press.
+    pub(super) after_s: f64,
+}
+
+impl Touch {
+    pub(super) fn any(&self) -> bool {
+        self.before_s > 0.0
+    }
+}
+
+/// The window the hand's touch takes around the onsets, measured on the residuals of the
+/// configuration `cfg` fitted to every sample: none when the bins before the onsets look like the
+/// holds. After the onsets it is measured only when there is a touch before them (the bins after an
+/// onset carry the effects too; those before it carry none).
+pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Touch {
+    let steps: usize = trials.iter().map(|tr| tr.segs.len()).sum();
+    let shortest = trials.iter().flat_map(|tr| tr.segs.windows(2).map(|w| w[1].t0 - w[0].t0)).fold(f64::INFINITY, f64::min);
+    let look = LOOK_S.min(0.5 * shortest);
+    let bin = trials.iter().map(sample_interval).fold(BIN_S, f64::max);
+    let n_bins = (look / bin).floor() as usize;
+    if steps < MIN_STEPS || n_bins < 4 {
+        return Touch::default();
+    }
+    let Some(x) = solve(d, trials, &all_rows(trials), cfg, hat) else { return Touch::default() };
+    let before = profile(d, trials, (cfg, hat, &x), n_bins, |tr, t| next_onset(tr, t).map(|(q, b)| (q, (b / bin) as usize)));
+    let after = profile(d, trials, (cfg, hat, &x), n_bins, |tr, t| last_onset(tr, t).map(|(q, a)| (q, (a / bin) as usize)));
+    let ms = |b: &(f64, usize)| b.0 / b.1.max(1) as f64;
+    let holds = before[n_bins / 2..].iter().map(|b| b.0).sum::<f64>() / before[n_bins / 2..].iter().map(|b| b.1).sum::<usize>().max(1) as f64;
+    let run = |p: &[(f64, usize)]| p[..n_bins / 2].iter().take_while(|b| b.1 > 0 && ms(b) > EXCESS * holds).count() as f64 * bin;
+    // one bin's excess is the onset's own misfit (a spike's edge, an onset a sample off)
+    let before_s = Some(run(&before)).filter(|&w| w >= MIN_BINS as f64 * bin - 1e-9).unwrap_or(0.0);
+    Touch { before_s, after_s: if before_s > 0.0 { run(&after) } else { 0.0 } }
+}
+
+/// The residuals' mean square per bin of time from the onsets (`bin_of`: a sample's step and bin),
+/// each step's residuals less their mean over its reference bins (the far half: a level the model
+/// misses over a whole hold, a trial's gain, is not the touch), pooled over steps and trials.
+fn profile(d: &Design, trials: &[Trial], (cfg, hat, x): (&Config, &Hat, &[f64]), n_bins: usize, bin_of: impl Fn(&Trial, f64) -> Option<(usize, usize)>) -> Vec<(f64, usize)> {
+    let mut ms = vec![(0.0, 0usize); n_bins];
+    let mut buf = Vec::new();
+    for (i, tr) in trials.iter().enumerate() {
+        let mut per_step: Vec<Vec<(usize, f64)>> = vec![Vec::new(); tr.segs.len()];
+        for j in 0..tr.t.len() {
+            if let Some((q, b)) = bin_of(tr, tr.t[j]).filter(|&(_, b)| b < n_bins) {
+                per_step[q].push((b, tr.v[j] - predict(d, i, tr, tr.t[j], x, cfg, hat, &mut buf)));
+            }
+        }
+        for rs in per_step {
+            let reference: Vec<f64> = rs.iter().filter(|(b, _)| *b >= n_bins / 2).map(|(_, e)| *e).collect();
+            if reference.len() < 2 {
+                continue;
+            }
+            let level = reference.iter().sum::<f64>() / reference.len() as f64;
+            for (b, e) in rs {
+                ms[b].0 += (e - level).powi(2);
+                ms[b].1 += 1;
+            }
+        }
+    }
+    ms
+}
+
+/// The last step at or before the time `t` and how long after its onset `t` lies.
+fn last_onset(tr: &Trial, t: f64) -> Option<(usize, f64)> {
+    tr.segs.iter().enumerate().map(|(q, s)| (q, t - s.t0)).filter(|&(_, a)| a >= 0.0).min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// The next step after the time `t` and how long before its onset `t` lies (None after the last).
+fn next_onset(tr: &Trial, t: f64) -> Option<(usize, f64)> {
+    tr.segs.iter().enumerate().map(|(q, s)| (q, s.t0 - t)).filter(|&(_, b)| b > 0.0).min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// How long before the next step's onset the time `t` lies (None after the last onset).
+fn before_onset(tr: &Trial, t: f64) -> Option<f64> {
+    next_onset(tr, t).map(|(_, b)| b)
+}
+
+/// The trial without the samples of the touch's window around each onset (as given and as
+/// diagnosed).
+pub(super) fn without_touch(tr: &Trial, w: Touch) -> Trial {
+    let keep = |t: f64| before_onset(tr, t).is_none_or(|b| b > w.before_s) && last_onset(tr, t).is_none_or(|(_, a)| a >= w.after_s);
+    let (t, v): (Vec<f64>, Vec<f64>) = tr.t.iter().zip(&tr.v).filter(|(t, _)| keep(**t)).map(|(t, v)| (*t, *v)).unzip();
+    let (given_t, given_v): (Vec<f64>, Vec<f64>) = tr.given_t.iter().zip(&tr.given_v).filter(|(t, _)| keep(**t)).map(|(t, v)| (*t, *v)).unzip();
+    Trial { t, v, given_t, given_v, ..tr.clone() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A hand's touch with a press before every logged change (0.25–0.75 s drawn per placement,
+    /// the press 6–18 % of the step) takes a window around the onsets; the same trials without the
+    /// touch take none, and so keep every sample.
+    #[test]
+    fn the_touch_window_is_measured_where_the_hand_is() {
+        let plain = fixture::recs(91_000, |_| {});
+        let b = fixture::built(&plain);
+        assert_eq!(b.touch, Touch::default());
+        let touched = fixture::recs_with(91_000, |_| {}, |p| {
+            p.touch_s = 0.5;
+            p.press_fraction = 0.12;
+        });
+        let bt = fixture::built(&touched);
+        let w = bt.touch;
+        assert!((0.1..=1.0).contains(&w.before_s) && (0.1..=1.5).contains(&w.after_s), "{w:?}");
+        // its samples are neither fitted nor scored; the others are all kept
+        let before = |tr: &Trial, t: f64| before_onset(tr, t).is_some_and(|x| x <= w.before_s);
+        let after = |tr: &Trial, t: f64| last_onset(tr, t).is_some_and(|(_, x)| x < w.after_s);
+        assert!(bt.trials.iter().all(|tr| tr.t.iter().all(|&t| !before(tr, t) && !after(tr, t))));
+        let whole = fixture::built_with_options(&touched, |o| o.pre.ramp = Some(crate::sensor::preprocess::Ramp { duration_s: 0.5, end_after_log_s: 0.0, smooth: true }));
+        assert_eq!(whole.touch, Touch::default(), "a modelled ramp takes no window");
+    }
+}
