@@ -546,3 +546,43 @@ fn the_trials_rest_states_do_not_take_hysteresis_place() {
         assert!(d.findings.iter().any(|f| f.effect == "hysteresis"), "seed {seed}: {:?} {:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>(), d.decisions);
     }
 }
+
+/// Issue 15 (a hand's touch before each logged change): the touch — the load lowered, pressed and
+/// let go over 0.25–0.75 s — is no sensor physics and differs at every placement. Fitted and
+/// scored, its few tenths of a second per step outweighed a hold's worth of a 1σ creep in the
+/// held-out error. The window it takes around the onsets is now measured on the baseline's
+/// residuals and left out of the fit and the score, as spikes are. With the trials' gains, rests
+/// and AR noise as well, a 1σ creep is named on 4 of these 8 fresh seeds (stop 32's code: none;
+/// one as an alternative), and every case has its touch window. Seeds 96 000–96 700, measured
+/// once on the final rule and not tuned on.
+#[test]
+fn a_hands_touch_is_handling_and_hides_less_creep() {
+    let mut named = 0;
+    for seed in (0..8u64).map(|k| 96_000 + 100 * k) {
+        let set = |s: &mut SensorParams| {
+            s.nuisance.gain_jitter = 0.03;
+            s.nuisance.rest_v = 2.0 * s.noise_v;
+            s.nuisance.rest_tau_s = 100.0;
+            s.nuisance.noise_ar_rho = 0.95;
+            s.nuisance.noise_ar_share = 0.25;
+            s.effects.creep_per_decade = 2.63e-3;
+        };
+        let touch = |p: &mut ProtocolParams| {
+            p.touch_s = 0.5;
+            p.press_fraction = 0.12;
+        };
+        let d = diagnose(&case_with(seed, set, touch), &Default::default()).unwrap();
+        let w = d.baseline.touch_window.unwrap_or_else(|| panic!("seed {seed}: no touch window"));
+        assert!(w.before_onset_s >= 0.1 && w.before_onset_s <= 1.0 && w.after_onset_s <= 1.5, "seed {seed}: {w:?}");
+        named += usize::from(d.findings.iter().any(|f| f.effect == "creep"));
+    }
+    assert!(named >= 4, "creep named on {named} of 8");
+}
+
+fn case_with(seed0: u64, f: impl Fn(&mut SensorParams), g: impl Fn(&mut ProtocolParams)) -> Vec<tipforge::sensor::recording::Recording> {
+    let mut s = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
+    f(&mut s);
+    let mut p = ProtocolParams::from_source(&load("params/protocol-1000g.toml")).unwrap();
+    g(&mut p);
+    (0..3).map(|k| simulate(&s, &p, 20.0, None, seed0 + k).0).collect()
+}

@@ -311,10 +311,11 @@ pub(super) fn diagnosis(
         report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after))).collect();
     if touch.any() {
         notes.push(format!(
-            "the hand's touch: from {:.1} s before each step's onset to {:.1} s after it the data leave the model by more than {} × the holds' mean square (the load placed, pressed, let go); those samples are handling, neither fitted nor scored",
+            "the hand's touch: from {:.1} s before each step's onset to {:.1} s after it the data leave the model by more than {} × the holds' mean square, by {} × next to the onsets (the load placed, pressed, let go); those samples are handling, neither fitted nor scored",
             touch.before_s,
             touch.after_s,
-            touch::EXCESS
+            touch::EXCESS,
+            touch::START_EXCESS
         ));
     }
     Diagnosis {

@@ -5,23 +5,35 @@
 //! error (family A's hand-touch tuning cases: 7 % of the samples, two thirds of the squared error).
 //!
 //! The window the touch takes is measured, not assumed: the baseline's residuals are aligned at
-//! every step's onset and pooled over steps and trials in bins of `BIN_S`; the touch is the run of
-//! bins just before the onset whose mean square exceeds `EXCESS` times that of the holds' later
-//! part (the bins from `LOOK_S / 2` to `LOOK_S` before the onsets). Its samples are handling, as
-//! spikes are: neither fitted nor scored, by the baseline and the improved model alike. Where the
-//! load's ramp is modelled (an actuator's travel) there is no window; where nothing departs, none.
+//! every step's onset and pooled over steps and trials in bins of `BIN_S` (each step's residuals
+//! less their level over the far half of the bins); the touch is the run of bins just before the
+//! onsets whose mean square exceeds `EXCESS` times that of the holds' later part (the bins from
+//! `LOOK_S / 2` to `LOOK_S` before the onsets), when the bin next to them exceeds `START_EXCESS`
+//! times and the run spans `MIN_BINS` (a single bin is the onset's own misfit). When there is a
+//! touch before the onsets, its run after them is measured the same way, up to `PRESS_TAUS` of the
+//! steps' median time constant (the response still carries the hand's press for a few of them). Its samples are
+//! handling, as spikes are: neither fitted nor scored, by the baseline and the improved model
+//! alike. Where the load's ramp is modelled (an actuator's travel) there is no window; where
+//! nothing departs, none.
 
 use super::*;
 
-/// The bins before the onsets are touch while their mean square exceeds this many times the
-/// holds' (about four standard errors of a bin pooled over 30 steps).
-pub(super) const EXCESS: f64 = 4.0;
+/// A touch starts with a bin next to the onsets whose mean square exceeds this many times the
+/// holds' (a hand's touch: 50–250 × on family A's tuning cases; an onset a sample off, a spike's
+/// edge or AR noise: up to 6 ×).
+pub(super) const START_EXCESS: f64 = 16.0;
+/// It goes on over the bins whose mean square exceeds this many times the holds' (a bin pooled
+/// over 30 steps of AR noise: up to about 2.3 ×).
+pub(super) const EXCESS: f64 = 3.0;
 /// Width of a bin (s), at least one sample interval.
 const BIN_S: f64 = 0.1;
 /// How far before the onsets the residuals are looked at (s), at most half the shortest step.
 const LOOK_S: f64 = 3.0;
 /// A touch spans at least this many bins before the onsets.
 const MIN_BINS: usize = 2;
+/// After the onsets, the touch's window is at most this many of the steps' median time constant
+/// (a press's lagged response falls to e^-3 of its size).
+const PRESS_TAUS: f64 = 3.0;
 /// Fewer steps than this pooled: no window is measured.
 const MIN_STEPS: usize = 4;
 
@@ -58,10 +70,14 @@ pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> T
     let after = profile(d, trials, (cfg, hat, &x), n_bins, |tr, t| last_onset(tr, t).map(|(q, a)| (q, (a / bin) as usize)));
     let ms = |b: &(f64, usize)| b.0 / b.1.max(1) as f64;
     let holds = before[n_bins / 2..].iter().map(|b| b.0).sum::<f64>() / before[n_bins / 2..].iter().map(|b| b.1).sum::<usize>().max(1) as f64;
+    let starts = |p: &[(f64, usize)]| p[0].1 > 0 && ms(&p[0]) > START_EXCESS * holds;
     let run = |p: &[(f64, usize)]| p[..n_bins / 2].iter().take_while(|b| b.1 > 0 && ms(b) > EXCESS * holds).count() as f64 * bin;
-    // one bin's excess is the onset's own misfit (a spike's edge, an onset a sample off)
-    let before_s = Some(run(&before)).filter(|&w| w >= MIN_BINS as f64 * bin - 1e-9).unwrap_or(0.0);
-    Touch { before_s, after_s: if before_s > 0.0 { run(&after) } else { 0.0 } }
+    // one bin's excess is the onset's own misfit (a large slow relaxation leaves the data right at
+    // the edge; a spike's edge; an onset a sample off)
+    let before_s = Some(run(&before)).filter(|&w| starts(&before) && w >= MIN_BINS as f64 * bin - 1e-9).unwrap_or(0.0);
+    // the response carries the press for a few of its time constants
+    let after_s = if before_s > 0.0 { run(&after).min(PRESS_TAUS * median_tau(trials)) } else { 0.0 };
+    Touch { before_s, after_s }
 }
 
 /// The residuals' mean square per bin of time from the onsets (`bin_of`: a sample's step and bin),
