@@ -16,6 +16,8 @@
 //!    cross-validation (`with_ramp`; the ramp's response and each step's own ramp are `input`'s);
 //!    part 1's step fits as trials (`trials_from`, the types in `model`); the paper's model fitted
 //!    and scored held out (`heldout`, solved through `normal`), or the simulator's prediction;
+//!    without a ramp, the window a hand's touch takes around the onsets (`touch`), whose samples
+//!    are then neither fitted nor scored;
 //! 2. the handling spikes' check (here): excluded only when that predicts held-out data better;
 //! 3. `locate` — where the baseline fails: the whiteness test and every effect's signature;
 //! 4. `select` — nuisances (`nuisance`), then the catalogue's terms (`terms`, with `clip` for
@@ -59,7 +61,6 @@ use baseline::*;
 use clip::*;
 use first_order::*;
 use gate::*;
-use touch::Touch;
 use heldout::*;
 use input::*;
 use locate::*;
@@ -71,6 +72,7 @@ use select::Selected;
 use serde::Serialize;
 use spectrum::*;
 use terms::*;
+use touch::Touch;
 
 pub use super::catalogue::Effect;
 pub use alternatives::{Alternative, Z_SEPARATE};

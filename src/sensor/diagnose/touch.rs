@@ -11,10 +11,10 @@
 //! `LOOK_S / 2` to `LOOK_S` before the onsets), when the bin next to them exceeds `START_EXCESS`
 //! times and the run spans `MIN_BINS` (a single bin is the onset's own misfit). When there is a
 //! touch before the onsets, its run after them is measured the same way, up to `PRESS_TAUS` of the
-//! steps' median time constant (the response still carries the hand's press for a few of them). Its samples are
-//! handling, as spikes are: neither fitted nor scored, by the baseline and the improved model
-//! alike. Where the load's ramp is modelled (an actuator's travel) there is no window; where
-//! nothing departs, none.
+//! steps' median time constant (the response still carries the hand's press for a few of them).
+//! Its samples are handling, as spikes are: neither fitted nor scored, by the baseline and the
+//! improved model alike. Where the load's ramp is modelled (an actuator's travel) there is no
+//! window; where nothing departs (or nothing is left in the holds to compare with), none.
 
 use super::*;
 
@@ -70,6 +70,9 @@ pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> T
     let after = profile(d, trials, (cfg, hat, &x), n_bins, |tr, t| last_onset(tr, t).map(|(q, a)| (q, (a / bin) as usize)));
     let ms = |b: &(f64, usize)| b.0 / b.1.max(1) as f64;
     let holds = before[n_bins / 2..].iter().map(|b| b.0).sum::<f64>() / before[n_bins / 2..].iter().map(|b| b.1).sum::<usize>().max(1) as f64;
+    if holds <= 0.0 {
+        return Touch::default();
+    }
     let starts = |p: &[(f64, usize)]| p[0].1 > 0 && ms(&p[0]) > START_EXCESS * holds;
     let run = |p: &[(f64, usize)]| p[..n_bins / 2].iter().take_while(|b| b.1 > 0 && ms(b) > EXCESS * holds).count() as f64 * bin;
     // one bin's excess is the onset's own misfit (a large slow relaxation leaves the data right at
@@ -144,10 +147,14 @@ mod tests {
         let plain = fixture::recs(91_000, |_| {});
         let b = fixture::built(&plain);
         assert_eq!(b.touch, Touch::default());
-        let touched = fixture::recs_with(91_000, |_| {}, |p| {
-            p.touch_s = 0.5;
-            p.press_fraction = 0.12;
-        });
+        let touched = fixture::recs_with(
+            91_000,
+            |_| {},
+            |p| {
+                p.touch_s = 0.5;
+                p.press_fraction = 0.12;
+            },
+        );
         let bt = fixture::built(&touched);
         let w = bt.touch;
         assert!((0.1..=1.0).contains(&w.before_s) && (0.1..=1.5).contains(&w.after_s), "{w:?}");
