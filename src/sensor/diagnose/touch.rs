@@ -11,8 +11,10 @@
 //! `LOOK_S / 2` to `LOOK_S` before the onsets), when the bin next to them exceeds `START_EXCESS`
 //! times and the run spans `MIN_BINS` (a single bin is the onset's own misfit). When there is a
 //! touch before the onsets, its run after them is measured the same way, up to `PRESS_TAUS` of the
-//! steps' median time constant (the response still carries the hand's press for a few of them).
-//! Its samples are handling, as spikes are: neither fitted nor scored, by the baseline and the
+//! steps' median time constant (the response still carries the hand's press for a few of them),
+//! unless the data reach a clip or a rail: the steps into and out of it take their onsets from the
+//! samples right after them (family A's rail + touch + nuisances row: saturation 2/8 → 0/8 with
+//! the window after the onsets). Its samples are handling, as spikes are: neither fitted nor scored, by the baseline and the
 //! improved model alike. Where the load's ramp is modelled (an actuator's travel) there is no
 //! window; where nothing departs (or nothing is left in the holds to compare with), none.
 
@@ -55,8 +57,9 @@ impl Touch {
 /// The window the hand's touch takes around the onsets, measured on the residuals of the
 /// configuration `cfg` fitted to every sample: none when the bins before the onsets look like the
 /// holds. After the onsets it is measured only when there is a touch before them (the bins after an
-/// onset carry the effects too; those before it carry none).
-pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> Touch {
+/// onset carry the effects too; those before it carry none), and only when `after_onsets` (not
+/// where a clip's steps take their onsets from the samples right after them).
+pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, after_onsets: bool) -> Touch {
     let steps: usize = trials.iter().map(|tr| tr.segs.len()).sum();
     let shortest = trials.iter().flat_map(|tr| tr.segs.windows(2).map(|w| w[1].t0 - w[0].t0)).fold(f64::INFINITY, f64::min);
     let look = LOOK_S.min(0.5 * shortest);
@@ -79,7 +82,7 @@ pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat) -> T
     // the edge; a spike's edge; an onset a sample off)
     let before_s = Some(run(&before)).filter(|&w| starts(&before) && w >= MIN_BINS as f64 * bin - 1e-9).unwrap_or(0.0);
     // the response carries the press for a few of its time constants
-    let after_s = if before_s > 0.0 { run(&after).min(PRESS_TAUS * median_tau(trials)) } else { 0.0 };
+    let after_s = if before_s > 0.0 && after_onsets { run(&after).min(PRESS_TAUS * median_tau(trials)) } else { 0.0 };
     Touch { before_s, after_s }
 }
 
@@ -156,6 +159,7 @@ mod tests {
             },
         );
         let bt = fixture::built(&touched);
+        assert!(bt.touch.after_s > 0.0);
         let w = bt.touch;
         assert!((0.1..=1.0).contains(&w.before_s) && (0.1..=1.5).contains(&w.after_s), "{w:?}");
         // its samples are neither fitted nor scored; the others are all kept
