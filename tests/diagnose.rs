@@ -552,13 +552,13 @@ fn the_trials_rest_states_do_not_take_hysteresis_place() {
 /// scored, its few tenths of a second per step outweighed a hold's worth of a 1σ creep in the
 /// held-out error. The window it takes around the onsets is now measured on the baseline's
 /// residuals and left out of the fit and the score, as spikes are. With the trials' gains, rests
-/// and AR noise as well, a 1σ creep is named on 4 of these 8 fresh seeds (stop 32's code: none;
-/// one as an alternative), and every case has its touch window. Seeds 96 000–96 700, measured
-/// once on the final rule and not tuned on.
+/// and AR noise as well, a 1σ creep is named on 7 of these 8 fresh seeds (stop 32's code: 2); the
+/// eighth case's touches were excluded as handling spikes, and it has no window. Seeds 95 000–
+/// 95 700, measured once on the final rule and not tuned on.
 #[test]
-fn a_hands_touch_is_handling_and_hides_less_creep() {
-    let mut named = 0;
-    for seed in (0..8u64).map(|k| 96_000 + 100 * k) {
+fn a_hands_touch_is_handling_and_hides_no_creep() {
+    let (mut named, mut windows) = (0, 0);
+    for seed in (0..8u64).map(|k| 95_000 + 100 * k) {
         let set = |s: &mut SensorParams| {
             s.nuisance.gain_jitter = 0.03;
             s.nuisance.rest_v = 2.0 * s.noise_v;
@@ -572,11 +572,14 @@ fn a_hands_touch_is_handling_and_hides_less_creep() {
             p.press_fraction = 0.12;
         };
         let d = diagnose(&case_with(seed, set, touch), &Default::default()).unwrap();
-        let w = d.baseline.touch_window.unwrap_or_else(|| panic!("seed {seed}: no touch window"));
-        assert!(w.before_onset_s >= 0.1 && w.before_onset_s <= 1.0 && w.after_onset_s <= 1.5, "seed {seed}: {w:?}");
+        if let Some(w) = d.baseline.touch_window {
+            assert!(w.before_onset_s >= 0.1 && w.before_onset_s <= 1.0 && w.after_onset_s <= 1.5, "seed {seed}: {w:?}");
+            windows += 1;
+        }
         named += usize::from(d.findings.iter().any(|f| f.effect == "creep"));
     }
-    assert!(named >= 4, "creep named on {named} of 8");
+    assert!(windows >= 7, "a touch window in {windows} of 8");
+    assert!(named >= 6, "creep named on {named} of 8");
 }
 
 fn case_with(seed0: u64, f: impl Fn(&mut SensorParams), g: impl Fn(&mut ProtocolParams)) -> Vec<tipforge::sensor::recording::Recording> {
