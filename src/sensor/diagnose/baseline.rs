@@ -215,7 +215,8 @@ pub(super) fn build(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline
     // the hand's touch before each onset: handling, neither fitted nor scored (none where the
     // load's ramp is modelled)
     let clipped = clip_level(&trials).or_else(|| rail_level(&d, &trials, &hat)).is_some();
-    let touch = if opts.pre.ramp.is_none() { touch::window(&d, &trials, &base_cfg, &hat, !clipped) } else { Touch::default() };
+    // (none where handling spikes were found at the placements: their exclusion is tested on its own)
+    let touch = if opts.pre.ramp.is_none() && !has_spikes { touch::window(&d, &trials, &base_cfg, &hat, !clipped) } else { Touch::default() };
     if touch.any() {
         for tr in trials.iter_mut().chain(given_trials.iter_mut().flatten()) {
             *tr = touch::without_touch(tr, touch);

@@ -9,7 +9,9 @@
 //! less their level over the far half of the bins); the touch is the run of bins just before the
 //! onsets whose mean square exceeds `EXCESS` times that of the holds' later part (the bins from
 //! `LOOK_S / 2` to `LOOK_S` before the onsets), when the bin next to them exceeds `START_EXCESS`
-//! times and the run spans `MIN_BINS` (a single bin is the onset's own misfit). When there is a
+//! times in its systematic part (what repeats at every loading step, and at every unloading step:
+//! a touch's course does, handling spikes of random sign do not) and the run spans `MIN_BINS` (a
+//! single bin is the onset's own misfit). When there is a
 //! touch before the onsets, its run after them is measured the same way, up to `PRESS_TAUS` of the
 //! steps' median time constant (the response still carries the hand's press for a few of them),
 //! unless the data reach a clip or a rail: the steps into and out of it take their onsets from the
@@ -20,9 +22,10 @@
 
 use super::*;
 
-/// A touch starts with a bin next to the onsets whose mean square exceeds this many times the
-/// holds' (a hand's touch: 50–250 × on family A's tuning cases; an onset a sample off, a spike's
-/// edge or AR noise: up to 6 ×).
+/// A touch starts with a bin next to the onsets whose systematic mean square (the part repeated at
+/// every loading step, and at every unloading step) exceeds this many times the holds' mean square
+/// (a hand's touch: 50–250 × in all on family A's tuning cases; an onset a sample off, a spike's
+/// edge or AR noise: up to 6 ×; handling spikes of either sign, however large, cancel in it).
 pub(super) const START_EXCESS: f64 = 16.0;
 /// It goes on over the bins whose mean square exceeds this many times the holds' (a bin pooled
 /// over 30 steps of AR noise: up to about 2.3 ×).
@@ -71,13 +74,12 @@ pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, afte
     let Some(x) = solve(d, trials, &all_rows(trials), cfg, hat) else { return Touch::default() };
     let before = profile(d, trials, (cfg, hat, &x), n_bins, |tr, t| next_onset(tr, t).map(|(q, b)| (q, (b / bin) as usize)));
     let after = profile(d, trials, (cfg, hat, &x), n_bins, |tr, t| last_onset(tr, t).map(|(q, a)| (q, (a / bin) as usize)));
-    let ms = |b: &(f64, usize)| b.0 / b.1.max(1) as f64;
-    let holds = before[n_bins / 2..].iter().map(|b| b.0).sum::<f64>() / before[n_bins / 2..].iter().map(|b| b.1).sum::<usize>().max(1) as f64;
+    let holds = before[n_bins / 2..].iter().map(|b| b.ss).sum::<f64>() / before[n_bins / 2..].iter().map(|b| b.n).sum::<usize>().max(1) as f64;
     if holds <= 0.0 {
         return Touch::default();
     }
-    let starts = |p: &[(f64, usize)]| p[0].1 > 0 && ms(&p[0]) > START_EXCESS * holds;
-    let run = |p: &[(f64, usize)]| p[..n_bins / 2].iter().take_while(|b| b.1 > 0 && ms(b) > EXCESS * holds).count() as f64 * bin;
+    let starts = |p: &[Bin]| p[0].n > 0 && p[0].systematic_ms() > START_EXCESS * holds;
+    let run = |p: &[Bin]| p[..n_bins / 2].iter().take_while(|b| b.n > 0 && b.ms() > EXCESS * holds).count() as f64 * bin;
     // one bin's excess is the onset's own misfit (a large slow relaxation leaves the data right at
     // the edge; a spike's edge; an onset a sample off)
     let before_s = Some(run(&before)).filter(|&w| starts(&before) && w >= MIN_BINS as f64 * bin - 1e-9).unwrap_or(0.0);
@@ -86,11 +88,33 @@ pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, afte
     Touch { before_s, after_s }
 }
 
-/// The residuals' mean square per bin of time from the onsets (`bin_of`: a sample's step and bin),
-/// each step's residuals less their mean over its reference bins (the far half: a level the model
-/// misses over a whole hold, a trial's gain, is not the touch), pooled over steps and trials.
-fn profile(d: &Design, trials: &[Trial], (cfg, hat, x): (&Config, &Hat, &[f64]), n_bins: usize, bin_of: impl Fn(&Trial, f64) -> Option<(usize, usize)>) -> Vec<(f64, usize)> {
-    let mut ms = vec![(0.0, 0usize); n_bins];
+/// One bin of time from the onsets, pooled over steps and trials: the residuals' sum of squares and
+/// count, and their sums and counts over loading and over unloading steps.
+#[derive(Clone, Copy, Default)]
+struct Bin {
+    ss: f64,
+    n: usize,
+    sum: [f64; 2],
+    count: [usize; 2],
+}
+
+impl Bin {
+    fn ms(&self) -> f64 {
+        self.ss / self.n.max(1) as f64
+    }
+    /// The part of the mean square that is the same at every step of a direction (the squared means
+    /// of loading and unloading steps, weighted by their counts): a touch's course repeats at every
+    /// placement, spikes of either sign cancel.
+    fn systematic_ms(&self) -> f64 {
+        (0..2).map(|k| self.sum[k].powi(2) / self.count[k].max(1) as f64).sum::<f64>() / self.n.max(1) as f64
+    }
+}
+
+/// The residuals per bin of time from the onsets (`bin_of`: a sample's step and bin), each step's
+/// residuals less their mean over its reference bins (the far half: a level the model misses over a
+/// whole hold, a trial's gain, is not the touch), pooled over steps and trials.
+fn profile(d: &Design, trials: &[Trial], (cfg, hat, x): (&Config, &Hat, &[f64]), n_bins: usize, bin_of: impl Fn(&Trial, f64) -> Option<(usize, usize)>) -> Vec<Bin> {
+    let mut bins = vec![Bin::default(); n_bins];
     let mut buf = Vec::new();
     for (i, tr) in trials.iter().enumerate() {
         let mut per_step: Vec<Vec<(usize, f64)>> = vec![Vec::new(); tr.segs.len()];
@@ -99,19 +123,23 @@ fn profile(d: &Design, trials: &[Trial], (cfg, hat, x): (&Config, &Hat, &[f64]),
                 per_step[q].push((b, tr.v[j] - predict(d, i, tr, tr.t[j], x, cfg, hat, &mut buf)));
             }
         }
-        for rs in per_step {
+        for (q, rs) in per_step.into_iter().enumerate() {
             let reference: Vec<f64> = rs.iter().filter(|(b, _)| *b >= n_bins / 2).map(|(_, e)| *e).collect();
             if reference.len() < 2 {
                 continue;
             }
             let level = reference.iter().sum::<f64>() / reference.len() as f64;
+            let dir = usize::from(tr.segs[q].load < tr.segs[q].prev);
             for (b, e) in rs {
-                ms[b].0 += (e - level).powi(2);
-                ms[b].1 += 1;
+                let bin = &mut bins[b];
+                bin.ss += (e - level).powi(2);
+                bin.n += 1;
+                bin.sum[dir] += e - level;
+                bin.count[dir] += 1;
             }
         }
     }
-    ms
+    bins
 }
 
 /// The last step at or before the time `t` and how long after its onset `t` lies.
