@@ -197,4 +197,26 @@ mod tests {
         let whole = fixture::built_with_options(&touched, |o| o.pre.ramp = Some(crate::sensor::preprocess::Ramp { duration_s: 0.5, end_after_log_s: 0.0, smooth: true }));
         assert_eq!(whole.touch, Touch::default(), "a modelled ramp takes no window");
     }
+
+    /// What repeats at every step of a direction is systematic; spikes of either sign are not.
+    #[test]
+    fn a_touch_repeats_and_spikes_cancel() {
+        let mut touch = Bin::default();
+        let mut spikes = Bin::default();
+        for k in 0..20 {
+            let dir = k % 2;
+            let e = if dir == 0 { 2.0 } else { -1.0 };
+            touch.ss += e * e;
+            touch.n += 1;
+            touch.sum[dir] += e;
+            touch.count[dir] += 1;
+            let e = if (k / 2) % 2 == 0 { 2.0 } else { -2.0 };
+            spikes.ss += e * e;
+            spikes.n += 1;
+            spikes.sum[dir] += e;
+            spikes.count[dir] += 1;
+        }
+        assert!((touch.systematic_ms() - touch.ms()).abs() < 1e-12, "{} {}", touch.systematic_ms(), touch.ms());
+        assert!(spikes.systematic_ms() < 0.1 * spikes.ms(), "{} {}", spikes.systematic_ms(), spikes.ms());
+    }
 }
