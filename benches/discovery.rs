@@ -5,6 +5,10 @@
 //! later detectors and rules were worked out on seeds 10 000–10 230, 20 000 and 30 000–30 110 and
 //! on the shared real recording. Reports use seeds ≥ 50 000, used for nothing else.
 
+#[path = "../tests/common/nuisances.rs"]
+mod nuisances;
+
+use nuisances::trial_nuisances;
 use tipforge::params::sensor::{ProtocolParams, SensorParams};
 use tipforge::params::SourceFile;
 use tipforge::sensor::diagnose::{diagnose, refitted_baseline};
@@ -409,16 +413,6 @@ fn speed() {
         println!("| {label} | {samples} | {:.2} |", times[2]);
     }
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// The trials' nuisances of the "trial nuisances" variations: gain ±3 % (1 s.d.), a rest
-/// relaxation up to 2σ with τ 100 s, and a quarter of the noise variance AR(1) with ρ 0.95.
-fn trial_nuisances(s: &mut SensorParams) {
-    s.nuisance.gain_jitter = 0.03;
-    s.nuisance.rest_v = 2.0 * s.noise_v;
-    s.nuisance.rest_tau_s = 100.0;
-    s.nuisance.noise_ar_rho = 0.95;
-    s.nuisance.noise_ar_share = 0.25;
 }
 
 /// The rail of the rail variation's `case`-th saturation case: below the top two levels (a quarter

@@ -1,6 +1,10 @@
 //! diagnose end to end on simulated recordings where the truth is known: no finding on clean data,
 //! the concealed effect found on data with it, output contract written.
 
+#[path = "common/nuisances.rs"]
+mod nuisances;
+
+use nuisances::trial_nuisances;
 use std::path::PathBuf;
 use std::process::Command;
 use tipforge::params::sensor::{ProtocolParams, SensorParams};
@@ -535,11 +539,7 @@ fn a_relaxation_is_named_by_whether_the_holds_show_it_settle() {
 fn the_trials_rest_states_do_not_take_hysteresis_place() {
     for seed in [99_000u64, 99_100, 99_200, 99_300] {
         let set = |s: &mut SensorParams| {
-            s.nuisance.gain_jitter = 0.03;
-            s.nuisance.rest_v = 2.0 * s.noise_v;
-            s.nuisance.rest_tau_s = 100.0;
-            s.nuisance.noise_ar_rho = 0.95;
-            s.nuisance.noise_ar_share = 0.25;
+            trial_nuisances(s);
             s.effects.hysteresis = 8.278e-3;
         };
         let d = diagnose(&case(seed, set), &Default::default()).unwrap();
@@ -560,11 +560,7 @@ fn a_hands_touch_is_handling_and_hides_no_creep() {
     let (mut named, mut windows) = (0, 0);
     for seed in (0..8u64).map(|k| 95_000 + 100 * k) {
         let set = |s: &mut SensorParams| {
-            s.nuisance.gain_jitter = 0.03;
-            s.nuisance.rest_v = 2.0 * s.noise_v;
-            s.nuisance.rest_tau_s = 100.0;
-            s.nuisance.noise_ar_rho = 0.95;
-            s.nuisance.noise_ar_share = 0.25;
+            trial_nuisances(s);
             s.effects.creep_per_decade = 2.63e-3;
         };
         let touch = |p: &mut ProtocolParams| {
