@@ -223,7 +223,7 @@ pub(super) fn settled(cur: &Config, alts: &[(Effect, Vec<Alternative>, Option<Be
 
 /// The median time from one step's onset to the next (s); infinite with one step.
 fn median_hold_s(trials: &[Trial]) -> f64 {
-    let mut h: Vec<f64> = trials.iter().flat_map(|t| t.segs.windows(2).map(|w| w[1].t0 - w[0].t0)).collect();
+    let mut h = step_spacings_s(trials);
     if h.is_empty() {
         return f64::INFINITY;
     }

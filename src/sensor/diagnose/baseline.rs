@@ -191,7 +191,7 @@ pub(super) struct Built {
     pub(super) xb: Vec<f64>,
     pub(super) has_spikes: bool,
     /// The window around each onset that the hand's touch takes, excluded (`touch`).
-    pub(super) touch: Touch,
+    pub(super) touch: Option<TouchWindow>,
 }
 
 /// Stage 1, the baseline: part 1's per-step fits as trials, the design over their loads, the levels
@@ -212,14 +212,14 @@ pub(super) fn build(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline
     let d = design(&report, &trials, sim.is_some())?;
     let mut hat = levels(recs, sim, &d, &trials)?;
     let base_cfg = Config::first_order();
-    // the hand's touch before each onset: handling, neither fitted nor scored (none where the
-    // load's ramp is modelled)
+    // the hand's touch around each onset: handling, neither fitted nor scored (none where the
+    // load's ramp is modelled, nor where handling spikes were found at the placements: their
+    // exclusion is tested on its own; none after the onsets where the data reach a clip)
     let clipped = clip_level(&trials).or_else(|| rail_level(&d, &trials, &hat)).is_some();
-    // (none where handling spikes were found at the placements: their exclusion is tested on its own)
-    let touch = if opts.pre.ramp.is_none() && !has_spikes { touch::window(&d, &trials, &base_cfg, &hat, !clipped) } else { Touch::default() };
-    if touch.any() {
+    let touch = if opts.pre.ramp.is_none() && !has_spikes { touch::window(&d, &trials, &base_cfg, &hat, !clipped) } else { None };
+    if let Some(w) = touch {
         for tr in trials.iter_mut().chain(given_trials.iter_mut().flatten()) {
-            *tr = touch::without_touch(tr, touch);
+            *tr = touch::without_touch(tr, w);
         }
         hat = levels(recs, sim, &d, &trials)?;
     }

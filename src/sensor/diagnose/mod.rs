@@ -72,7 +72,6 @@ use select::Selected;
 use serde::Serialize;
 use spectrum::*;
 use terms::*;
-use touch::Touch;
 
 pub use super::catalogue::Effect;
 pub use alternatives::{Alternative, Z_SEPARATE};

@@ -52,8 +52,8 @@ pub struct Baseline {
     pub touch_window: Option<TouchWindow>,
 }
 
-/// The window around every step's onset that a hand's touch takes.
-#[derive(Debug, Clone, Copy, Serialize)]
+/// The window around every step's onset that a hand's touch takes (`touch::window`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct TouchWindow {
     pub before_onset_s: f64,
     pub after_onset_s: f64,
@@ -309,11 +309,11 @@ pub(super) fn diagnosis(
     let final_names = final_names(&cur, &mut findings, spectrum_exact.as_ref());
     let mut notes: Vec<String> =
         report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after))).collect();
-    if touch.any() {
+    if let Some(w) = touch {
         notes.push(format!(
             "the hand's touch: from {:.1} s before each step's onset to {:.1} s after it the data leave the model by more than {} × the holds' mean square, by {} × next to the onsets (the load placed, pressed, let go); those samples are handling, neither fitted nor scored",
-            touch.before_s,
-            touch.after_s,
+            w.before_onset_s,
+            w.after_onset_s,
             touch::EXCESS,
             touch::START_EXCESS
         ));
@@ -336,7 +336,7 @@ pub(super) fn diagnosis(
             heldout_rmse: base.heldout_rmse,
             bic: base.bic,
             load_ramp: opts.pre.ramp.filter(|r| r.duration_s > 0.0 && sim.is_none()),
-            touch_window: touch.any().then_some(TouchWindow { before_onset_s: touch.before_s, after_onset_s: touch.after_s }),
+            touch_window: touch,
         },
         final_: Final {
             effects: final_names,

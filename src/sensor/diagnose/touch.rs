@@ -42,50 +42,38 @@ const PRESS_TAUS: f64 = 3.0;
 /// Fewer steps than this pooled: no window is measured.
 const MIN_STEPS: usize = 4;
 
-/// The window around each onset that the hand's touch takes.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(super) struct Touch {
-    /// Before the onset (s).
-    pub(super) before_s: f64,
-    /// After it (s): the response still carrying the hand's press.
-    pub(super) after_s: f64,
-}
-
-impl Touch {
-    pub(super) fn any(&self) -> bool {
-        self.before_s > 0.0
-    }
-}
-
 /// The window the hand's touch takes around the onsets, measured on the residuals of the
 /// configuration `cfg` fitted to every sample: none when the bins before the onsets look like the
-/// holds. After the onsets it is measured only when there is a touch before them (the bins after an
+/// holds (None). After the onsets it is measured only when there is a touch before them (the bins after an
 /// onset carry the effects too; those before it carry none), and only when `after_onsets` (not
 /// where a clip's steps take their onsets from the samples right after them).
-pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, after_onsets: bool) -> Touch {
+pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, after_onsets: bool) -> Option<TouchWindow> {
     let steps: usize = trials.iter().map(|tr| tr.segs.len()).sum();
-    let shortest = trials.iter().flat_map(|tr| tr.segs.windows(2).map(|w| w[1].t0 - w[0].t0)).fold(f64::INFINITY, f64::min);
+    let shortest = step_spacings_s(trials).into_iter().fold(f64::INFINITY, f64::min);
     let look = LOOK_S.min(0.5 * shortest);
     let bin = trials.iter().map(sample_interval).fold(BIN_S, f64::max);
     let n_bins = (look / bin).floor() as usize;
     if steps < MIN_STEPS || n_bins < 4 {
-        return Touch::default();
+        return None;
     }
-    let Some(x) = solve(d, trials, &all_rows(trials), cfg, hat) else { return Touch::default() };
-    let before = profile(d, trials, (cfg, hat, &x), n_bins, |tr, t| next_onset(tr, t).map(|(q, b)| (q, (b / bin) as usize)));
-    let after = profile(d, trials, (cfg, hat, &x), n_bins, |tr, t| last_onset(tr, t).map(|(q, a)| (q, (a / bin) as usize)));
+    let x = solve(d, trials, &all_rows(trials), cfg, hat)?;
+    let mut buf = Vec::new();
+    let residuals: Vec<Vec<f64>> =
+        trials.iter().enumerate().map(|(i, tr)| (0..tr.t.len()).map(|j| tr.v[j] - predict(d, i, tr, tr.t[j], &x, cfg, hat, &mut buf)).collect()).collect();
+    let before = profile(trials, &residuals, n_bins, |tr, t| next_onset(tr, t).map(|(q, b)| (q, (b / bin) as usize)));
+    let after = profile(trials, &residuals, n_bins, |tr, t| last_onset(tr, t).map(|(q, a)| (q, (a / bin) as usize)));
     let holds = before[n_bins / 2..].iter().map(|b| b.ss).sum::<f64>() / before[n_bins / 2..].iter().map(|b| b.n).sum::<usize>().max(1) as f64;
     if holds <= 0.0 {
-        return Touch::default();
+        return None;
     }
     let starts = |p: &[Bin]| p[0].n > 0 && p[0].systematic_ms() > START_EXCESS * holds;
     let run = |p: &[Bin]| p[..n_bins / 2].iter().take_while(|b| b.n > 0 && b.ms() > EXCESS * holds).count() as f64 * bin;
     // one bin's excess is the onset's own misfit (a large slow relaxation leaves the data right at
     // the edge; a spike's edge; an onset a sample off)
-    let before_s = Some(run(&before)).filter(|&w| starts(&before) && w >= MIN_BINS as f64 * bin - 1e-9).unwrap_or(0.0);
+    let before_onset_s = Some(run(&before)).filter(|&w| starts(&before) && w >= MIN_BINS as f64 * bin - 1e-9)?;
     // the response carries the press for a few of its time constants
-    let after_s = if before_s > 0.0 && after_onsets { run(&after).min(PRESS_TAUS * median_tau(trials)) } else { 0.0 };
-    Touch { before_s, after_s }
+    let after_onset_s = if after_onsets { run(&after).min(PRESS_TAUS * median_tau(trials)) } else { 0.0 };
+    Some(TouchWindow { before_onset_s, after_onset_s })
 }
 
 /// One bin of time from the onsets, pooled over steps and trials: the residuals' sum of squares and
@@ -110,17 +98,16 @@ impl Bin {
     }
 }
 
-/// The residuals per bin of time from the onsets (`bin_of`: a sample's step and bin), each step's
+/// The residuals (per trial and sample) per bin of time from the onsets (`bin_of`: a sample's step and bin), each step's
 /// residuals less their mean over its reference bins (the far half: a level the model misses over a
 /// whole hold, a trial's gain, is not the touch), pooled over steps and trials.
-fn profile(d: &Design, trials: &[Trial], (cfg, hat, x): (&Config, &Hat, &[f64]), n_bins: usize, bin_of: impl Fn(&Trial, f64) -> Option<(usize, usize)>) -> Vec<Bin> {
+fn profile(trials: &[Trial], residuals: &[Vec<f64>], n_bins: usize, bin_of: impl Fn(&Trial, f64) -> Option<(usize, usize)>) -> Vec<Bin> {
     let mut bins = vec![Bin::default(); n_bins];
-    let mut buf = Vec::new();
-    for (i, tr) in trials.iter().enumerate() {
+    for (tr, r) in trials.iter().zip(residuals) {
         let mut per_step: Vec<Vec<(usize, f64)>> = vec![Vec::new(); tr.segs.len()];
         for j in 0..tr.t.len() {
             if let Some((q, b)) = bin_of(tr, tr.t[j]).filter(|&(_, b)| b < n_bins) {
-                per_step[q].push((b, tr.v[j] - predict(d, i, tr, tr.t[j], x, cfg, hat, &mut buf)));
+                per_step[q].push((b, r[j]));
             }
         }
         for (q, rs) in per_step.into_iter().enumerate() {
@@ -159,8 +146,8 @@ fn before_onset(tr: &Trial, t: f64) -> Option<f64> {
 
 /// The trial without the samples of the touch's window around each onset (as given and as
 /// diagnosed).
-pub(super) fn without_touch(tr: &Trial, w: Touch) -> Trial {
-    let keep = |t: f64| before_onset(tr, t).is_none_or(|b| b > w.before_s) && last_onset(tr, t).is_none_or(|(_, a)| a >= w.after_s);
+pub(super) fn without_touch(tr: &Trial, w: TouchWindow) -> Trial {
+    let keep = |t: f64| before_onset(tr, t).is_none_or(|b| b > w.before_onset_s) && last_onset(tr, t).is_none_or(|(_, a)| a >= w.after_onset_s);
     let (t, v): (Vec<f64>, Vec<f64>) = tr.t.iter().zip(&tr.v).filter(|(t, _)| keep(**t)).map(|(t, v)| (*t, *v)).unzip();
     let (given_t, given_v): (Vec<f64>, Vec<f64>) = tr.given_t.iter().zip(&tr.given_v).filter(|(t, _)| keep(**t)).map(|(t, v)| (*t, *v)).unzip();
     Trial { t, v, given_t, given_v, ..tr.clone() }
@@ -177,7 +164,7 @@ mod tests {
     fn the_touch_window_is_measured_where_the_hand_is() {
         let plain = fixture::recs(91_000, |_| {});
         let b = fixture::built(&plain);
-        assert_eq!(b.touch, Touch::default());
+        assert!(b.touch.is_none());
         let touched = fixture::recs_with(
             91_000,
             |_| {},
@@ -187,15 +174,14 @@ mod tests {
             },
         );
         let bt = fixture::built(&touched);
-        assert!(bt.touch.after_s > 0.0);
-        let w = bt.touch;
-        assert!((0.1..=1.0).contains(&w.before_s) && (0.1..=1.5).contains(&w.after_s), "{w:?}");
+        let w = bt.touch.expect("a touch window");
+        assert!((0.1..=1.0).contains(&w.before_onset_s) && (0.1..=1.5).contains(&w.after_onset_s), "{w:?}");
         // its samples are neither fitted nor scored; the others are all kept
-        let before = |tr: &Trial, t: f64| before_onset(tr, t).is_some_and(|x| x <= w.before_s);
-        let after = |tr: &Trial, t: f64| last_onset(tr, t).is_some_and(|(_, x)| x < w.after_s);
+        let before = |tr: &Trial, t: f64| before_onset(tr, t).is_some_and(|x| x <= w.before_onset_s);
+        let after = |tr: &Trial, t: f64| last_onset(tr, t).is_some_and(|(_, x)| x < w.after_onset_s);
         assert!(bt.trials.iter().all(|tr| tr.t.iter().all(|&t| !before(tr, t) && !after(tr, t))));
         let whole = fixture::built_with_options(&touched, |o| o.pre.ramp = Some(crate::sensor::preprocess::Ramp { duration_s: 0.5, end_after_log_s: 0.0, smooth: true }));
-        assert_eq!(whole.touch, Touch::default(), "a modelled ramp takes no window");
+        assert!(whole.touch.is_none(), "a modelled ramp takes no window");
     }
 
     /// What repeats at every step of a direction is systematic; spikes of either sign are not.
