@@ -314,6 +314,18 @@ fn main() {
                 p.press_fraction = 0.12
             }),
         ),
+        // the hand's touch logged less faithfully: the log written at the load's landing ± 0.3 s
+        // (1 s.d.; the default protocol logs 0.3 ± 0.15 s after it), with the trial nuisances
+        (
+            "touch + trial nuisances, logged at the landing ± 0.3 s",
+            Box::new(|s, p| {
+                trial_nuisances(s);
+                p.touch_s = 0.5;
+                p.press_fraction = 0.12;
+                p.logging_offset_s = 0.0;
+                p.logging_jitter_s = 0.3
+            }),
+        ),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {

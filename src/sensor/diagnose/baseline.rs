@@ -216,7 +216,7 @@ pub(super) fn build(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline
     // load's ramp is modelled, nor where handling spikes were found at the placements: their
     // exclusion is tested on its own; none after the onsets where the data reach a clip)
     let clipped = clip_level(&trials).or_else(|| rail_level(&d, &trials, &hat)).is_some();
-    let touch = if opts.pre.ramp.is_none() && !has_spikes { touch::window(&d, &trials, &base_cfg, &hat, !clipped) } else { None };
+    let touch = if opts.pre.ramp.is_none() { touch::window(&d, &trials, &base_cfg, &hat, !clipped) } else { None };
     if let Some(w) = touch {
         for tr in trials.iter_mut().chain(given_trials.iter_mut().flatten()) {
             *tr = touch::without_touch(tr, w);
