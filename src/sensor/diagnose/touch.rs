@@ -17,8 +17,11 @@
 //! unless the data reach a clip or a rail: the steps into and out of it take their onsets from the
 //! samples right after them (family A's rail + touch + nuisances row: saturation 2/8 → 0/8 with
 //! the window after the onsets). Its samples are handling, as spikes are: neither fitted nor scored, by the baseline and the
-//! improved model alike. Where the load's ramp is modelled (an actuator's travel) there is no
-//! window; where nothing departs (or nothing is left in the holds to compare with), none.
+//! improved model alike. Where part 1 found handling spikes, the window is measured on the samples
+//! left after them: a placement or two taken for spikes (family A, logged at the landing ± 0.3 s)
+//! no longer costs every other placement its window. Where the load's ramp is modelled (an
+//! actuator's travel) there is no window; where nothing departs (or nothing is left in the holds
+//! to compare with), none.
 
 use super::*;
 
