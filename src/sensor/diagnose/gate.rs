@@ -81,46 +81,29 @@ pub(super) fn change_z(clip: bool, before: &Score, after: &Score, clip_units: &[
         let best = groups.iter().map(|g| paired_z_on(before, after, g)).fold(f64::NEG_INFINITY, f64::max);
         // the better of two groups is a second chance: Bonferroni's, the better z must reach the
         // one-sided level of MIN_Z halved (z 3.205 for 3.0), so it is scaled to be judged at MIN_Z
-        let z = if groups.len() > 1 { best * MIN_Z / TWO_GROUP_Z } else { best };
-        // too few units for any ranking to reach MIN_Z: every one of them must halve its error
-        if groups.iter().any(|g| halves_every_unit(before, after, g)) {
-            z.max(MIN_Z)
+        if groups.len() > 1 {
+            best * MIN_Z / TWO_GROUP_Z
         } else {
-            z
+            best
         }
     } else {
         paired_z(&before.units, &after.units)
     }
 }
 
-/// Paired z over the units listed in `only` (all units when it is empty); 0 with fewer than three
-/// such units (no z can be formed: see [`halves_every_unit`]).
+/// Paired z over the units listed in `only` (all units when it is empty). With fewer than three
+/// such units a z cannot be formed: every one of them must then at least halve its error, which
+/// counts as passing (MIN_Z), else 0.
 pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]) -> f64 {
     if only.is_empty() {
         return paired_z(&before.units, &after.units);
     }
-    let (b, a) = (pick(before, only), pick(after, only));
+    let pick = |s: &Score| -> Vec<f64> { s.unit_keys.iter().zip(&s.units).filter(|(k, _)| only.contains(k)).map(|(_, v)| *v).collect() };
+    let (b, a) = (pick(before), pick(after));
     if b.len() < 3 {
-        return 0.0;
+        return if !b.is_empty() && b.iter().zip(&a).all(|(x, y)| *y <= 0.5 * x) { MIN_Z } else { 0.0 };
     }
     paired_z(&b, &a)
-}
-
-/// The units of `s` listed in `only`, in the score's order.
-fn pick(s: &Score, only: &[(usize, usize)]) -> Vec<f64> {
-    s.unit_keys.iter().zip(&s.units).filter(|(k, _)| only.contains(k)).map(|(_, v)| *v).collect()
-}
-
-/// The small-sample rule of a group of units a clip shapes (one per trial's step into or out of it,
-/// often three): with so few units that even a signed rank of all of them in one direction stays
-/// under [`MIN_Z`] (up to 11), and the paired z's spread from the trials' own nuisances, the
-/// change passes when every unit of the group at least halves its held-out error.
-pub(super) fn halves_every_unit(before: &Score, after: &Score, only: &[(usize, usize)]) -> bool {
-    let (b, a) = (pick(before, only), pick(after, only));
-    let n = b.len() as f64;
-    // the largest signed-rank z of n units: all of them in one direction
-    let top_rank_z = (3.0 * n * (n + 1.0) / (2.0 * (2.0 * n + 1.0))).sqrt();
-    !b.is_empty() && top_rank_z < MIN_Z && b.iter().zip(&a).all(|(x, y)| *y <= 0.5 * x)
 }
 
 /// A finding's confidence from its held-out gain and its ΔBIC.
@@ -154,40 +137,5 @@ mod tests {
         assert!(paired_z(&before, &worse) < 0.0);
         let tiny: Vec<f64> = before.iter().map(|b| b * 0.99).collect();
         assert_eq!(paired_z(&before, &tiny), diff_z(&before, &tiny));
-    }
-
-    fn score(units: &[f64]) -> Score {
-        Score {
-            rmse: 0.0,
-            heldout_rmse: units.iter().sum::<f64>().sqrt(),
-            bic: 0.0,
-            params: 0,
-            n: units.len(),
-            units: units.to_vec(),
-            unit_keys: (0..units.len()).map(|k| (k, 1)).collect(),
-            unit_n: vec![1; units.len()],
-            blocks: 0,
-        }
-    }
-
-    /// A clip's group of three units (one per trial) that every one halves its error passes, however
-    /// unevenly they gain (no ranking of three units reaches MIN_Z, and their differences spread with
-    /// the trials' nuisances); one unit that does not halve, or a group large enough to rank, is
-    /// judged by the z alone.
-    #[test]
-    fn a_few_units_that_all_halve_their_error_pass() {
-        let group = vec![(0, 1), (1, 1), (2, 1)];
-        let before = score(&[4.0, 30.0, 9.0, 1.0]);
-        let after = score(&[1.0, 3.0, 4.0, 1.0]);
-        assert!(paired_z_on(&before, &after, &group) < MIN_Z, "{}", paired_z_on(&before, &after, &group));
-        assert!(halves_every_unit(&before, &after, &group));
-        assert!(change_z(true, &before, &after, &[group.clone(), vec![(3, 1)]]) >= MIN_Z);
-        let short = score(&[4.0, 30.0, 9.0, 1.0].map(|x| x * 0.6));
-        assert!(!halves_every_unit(&before, &short, &group));
-        assert!(change_z(true, &before, &short, &[group.clone()]) < MIN_Z);
-        // twelve units can be ranked: halving is not enough on its own
-        let many: Vec<(usize, usize)> = (0..12).map(|k| (k, 1)).collect();
-        let b12 = score(&[1.0; 12]);
-        assert!(!halves_every_unit(&b12, &score(&[0.4; 12]), &many));
     }
 }
