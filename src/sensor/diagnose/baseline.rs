@@ -213,10 +213,10 @@ pub(super) fn build(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline
     let mut hat = levels(recs, sim, &d, &trials)?;
     let base_cfg = Config::first_order();
     // the hand's touch around each onset: handling, neither fitted nor scored (none where the
-    // load's ramp is modelled; measured on the samples left after any handling spikes, whose
+    // load's ramp is modelled, nor where handling spikes were found at the placements: their
     // exclusion is tested on its own; none after the onsets where the data reach a clip)
     let clipped = clip_level(&trials).or_else(|| rail_level(&d, &trials, &hat)).is_some();
-    let touch = if opts.pre.ramp.is_none() { touch::window(&d, &trials, &base_cfg, &hat, !clipped) } else { None };
+    let touch = if opts.pre.ramp.is_none() && !has_spikes { touch::window(&d, &trials, &base_cfg, &hat, !clipped) } else { None };
     if let Some(w) = touch {
         for tr in trials.iter_mut().chain(given_trials.iter_mut().flatten()) {
             *tr = touch::without_touch(tr, w);

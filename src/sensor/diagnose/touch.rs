@@ -17,11 +17,8 @@
 //! unless the data reach a clip or a rail: the steps into and out of it take their onsets from the
 //! samples right after them (family A's rail + touch + nuisances row: saturation 2/8 → 0/8 with
 //! the window after the onsets). Its samples are handling, as spikes are: neither fitted nor scored, by the baseline and the
-//! improved model alike. Where part 1 found handling spikes, the window is measured on the samples
-//! left after them: a placement or two taken for spikes (family A, logged at the landing ± 0.3 s)
-//! no longer costs every other placement its window. Where the load's ramp is modelled (an
-//! actuator's travel) there is no window; where nothing departs (or nothing is left in the holds
-//! to compare with), none.
+//! improved model alike. Where the load's ramp is modelled (an actuator's travel) there is no
+//! window; where nothing departs (or nothing is left in the holds to compare with), none.
 
 use super::*;
 
@@ -54,7 +51,7 @@ pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, afte
     let steps: usize = trials.iter().map(|tr| tr.segs.len()).sum();
     let shortest = step_spacings_s(trials).into_iter().fold(f64::INFINITY, f64::min);
     let look = LOOK_S.min(0.5 * shortest);
-    let bin = trials.iter().map(median_interval).fold(BIN_S, f64::max);
+    let bin = trials.iter().map(sample_interval).fold(BIN_S, f64::max);
     let n_bins = (look / bin).floor() as usize;
     if steps < MIN_STEPS || n_bins < 4 {
         return None;
@@ -77,17 +74,6 @@ pub(super) fn window(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, afte
     // the response carries the press for a few of its time constants
     let after_onset_s = if after_onsets { run(&after).min(PRESS_TAUS * median_tau(trials)) } else { 0.0 };
     Some(TouchWindow { before_onset_s, after_onset_s })
-}
-
-/// The trial's sample interval: the median gap between its samples (handling spikes may have been
-/// taken out, and the mean gap would count their holes).
-fn median_interval(tr: &Trial) -> f64 {
-    let mut gaps: Vec<f64> = tr.t.windows(2).map(|w| w[1] - w[0]).collect();
-    if gaps.is_empty() {
-        return f64::INFINITY;
-    }
-    gaps.sort_by(f64::total_cmp);
-    gaps[gaps.len() / 2]
 }
 
 /// One bin of time from the onsets, pooled over steps and trials: the residuals' sum of squares and
@@ -196,38 +182,6 @@ mod tests {
         assert!(bt.trials.iter().all(|tr| tr.t.iter().all(|&t| !before(tr, t) && !after(tr, t))));
         let whole = fixture::built_with_options(&touched, |o| o.pre.ramp = Some(crate::sensor::preprocess::Ramp { duration_s: 0.5, end_after_log_s: 0.0, smooth: true }));
         assert!(whole.touch.is_none(), "a modelled ramp takes no window");
-    }
-
-    /// A placement or two that part 1 takes for handling spikes (here, where the log is written
-    /// 0.6 s after the landing) does not cost the other placements their window: the touch is
-    /// measured on the samples left after the spikes.
-    #[test]
-    fn spikes_at_some_placements_leave_the_touch_its_window() {
-        let recs = fixture::recs_with(
-            97_300,
-            |_| {},
-            |p| {
-                p.touch_s = 0.5;
-                p.press_fraction = 0.12;
-                p.logging_offset_s = 0.0;
-                p.logging_jitter_s = 0.3;
-            },
-        );
-        let b = fixture::built(&recs);
-        assert!(b.has_spikes, "part 1 finds spikes on this case");
-        let w = b.touch.expect("a touch window");
-        assert!((0.1..=1.0).contains(&w.before_onset_s), "{w:?}");
-    }
-
-    /// The bins are as wide as asked, not widened by the holes spikes leave.
-    #[test]
-    fn the_sample_interval_ignores_holes() {
-        let mut tr = fixture::built(&fixture::recs(91_000, |_| {})).trials.swap_remove(0);
-        let dt = median_interval(&tr);
-        tr.t.drain(100..150);
-        // 100 Hz in blocks of 10 samples
-        assert!((median_interval(&tr) - dt).abs() < 1e-12 && (dt - 0.1).abs() < 1e-9, "{dt}");
-        assert!(sample_interval(&tr) > 1.01 * dt, "the mean gap counts the hole");
     }
 
     /// What repeats at every step of a direction is systematic; spikes of either sign are not.
