@@ -585,3 +585,21 @@ fn case_with(seed0: u64, f: impl Fn(&mut SensorParams), g: impl Fn(&mut Protocol
     g(&mut p);
     (0..3).map(|k| simulate(&s, &p, 20.0, None, seed0 + k).0).collect()
 }
+
+/// Handling spikes of 0.3σ (14.7 mV at every placement, the standard table's smallest) are named,
+/// and no touch window is measured where there is no touch. Only the 0.2 V spikes had a test. It
+/// is a guard, not a proof against stop 34's reverted window beside part 1's spikes: on these fresh
+/// seeds that variant named 15 of 16, this code 16 of 16 (the tuning block 40 000 and the report
+/// seeds showed the loss, 0.75 and 0.62). Fresh seeds 98 000–98 700.
+#[test]
+fn small_handling_spikes_are_named() {
+    let named = (0..8u64)
+        .map(|k| 98_000 + 100 * k)
+        .filter(|&seed| {
+            let d = diagnose(&case(seed, |s| s.effects.spike_v = 1.47e-2), &Default::default()).unwrap();
+            assert!(d.baseline.touch_window.is_none(), "seed {seed}: no touch, no window");
+            d.findings.iter().any(|f| f.effect == "handling_spikes")
+        })
+        .count();
+    assert!(named >= 7, "0.3σ handling spikes named on {named} of 8");
+}
