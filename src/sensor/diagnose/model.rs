@@ -127,12 +127,12 @@ impl Relax {
     }
 }
 
-/// The median of the steps' part-1 time constants (the second relaxation's grid is relative to it).
 /// The time from each step's onset to the next one's, over every trial (s).
 pub(super) fn step_spacings_s(trials: &[Trial]) -> Vec<f64> {
     trials.iter().flat_map(|t| t.segs.windows(2).map(|w| w[1].t0 - w[0].t0)).collect()
 }
 
+/// The median of the steps' part-1 time constants (the second relaxation's grid is relative to it).
 pub(super) fn median_tau(trials: &[Trial]) -> f64 {
     let mut t: Vec<f64> = trials.iter().flat_map(|t| t.segs.iter().map(|s| s.tau)).collect();
     crate::sensor::preprocess::median(&mut t)

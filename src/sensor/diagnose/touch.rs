@@ -16,8 +16,8 @@
 //! steps' median time constant (the response still carries the hand's press for a few of them),
 //! unless the data reach a clip or a rail: the steps into and out of it take their onsets from the
 //! samples right after them (family A's rail + touch + nuisances row: saturation 2/8 → 0/8 with
-//! the window after the onsets). Its samples are handling, as spikes are: neither fitted nor scored, by the baseline and the
-//! improved model alike. Where the load's ramp is modelled (an actuator's travel) there is no
+//! the window after the onsets). Its samples are handling, as spikes are: neither fitted nor
+//! scored, by the baseline and the improved model alike. Where the load's ramp is modelled (an actuator's travel) there is no
 //! window; where nothing departs (or nothing is left in the holds to compare with), none.
 
 use super::*;
@@ -96,6 +96,13 @@ impl Bin {
     fn systematic_ms(&self) -> f64 {
         (0..2).map(|k| self.sum[k].powi(2) / self.count[k].max(1) as f64).sum::<f64>() / self.n.max(1) as f64
     }
+    /// One residual `e` of a loading (`dir` 0) or unloading (1) step.
+    fn add(&mut self, dir: usize, e: f64) {
+        self.ss += e * e;
+        self.n += 1;
+        self.sum[dir] += e;
+        self.count[dir] += 1;
+    }
 }
 
 /// The residuals (per trial and sample) per bin of time from the onsets (`bin_of`: a sample's step and bin), each step's
@@ -118,11 +125,7 @@ fn profile(trials: &[Trial], residuals: &[Vec<f64>], n_bins: usize, bin_of: impl
             let level = reference.iter().sum::<f64>() / reference.len() as f64;
             let dir = usize::from(tr.segs[q].load < tr.segs[q].prev);
             for (b, e) in rs {
-                let bin = &mut bins[b];
-                bin.ss += (e - level).powi(2);
-                bin.n += 1;
-                bin.sum[dir] += e - level;
-                bin.count[dir] += 1;
+                bins[b].add(dir, e - level);
             }
         }
     }
@@ -191,16 +194,8 @@ mod tests {
         let mut spikes = Bin::default();
         for k in 0..20 {
             let dir = k % 2;
-            let e = if dir == 0 { 2.0 } else { -1.0 };
-            touch.ss += e * e;
-            touch.n += 1;
-            touch.sum[dir] += e;
-            touch.count[dir] += 1;
-            let e = if (k / 2) % 2 == 0 { 2.0 } else { -2.0 };
-            spikes.ss += e * e;
-            spikes.n += 1;
-            spikes.sum[dir] += e;
-            spikes.count[dir] += 1;
+            touch.add(dir, if dir == 0 { 2.0 } else { -1.0 });
+            spikes.add(dir, if (k / 2) % 2 == 0 { 2.0 } else { -2.0 });
         }
         assert!((touch.systematic_ms() - touch.ms()).abs() < 1e-12, "{} {}", touch.systematic_ms(), touch.ms());
         assert!(spikes.systematic_ms() < 0.1 * spikes.ms(), "{} {}", spikes.systematic_ms(), spikes.ms());
