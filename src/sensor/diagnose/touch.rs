@@ -97,7 +97,7 @@ impl Bin {
         (0..2).map(|k| self.sum[k].powi(2) / self.count[k].max(1) as f64).sum::<f64>() / self.n.max(1) as f64
     }
     /// One residual `e` of a loading (`dir` 0) or unloading (1) step.
-    fn add(&mut self, dir: usize, e: f64) {
+    fn push_residual(&mut self, dir: usize, e: f64) {
         self.ss += e * e;
         self.n += 1;
         self.sum[dir] += e;
@@ -125,7 +125,7 @@ fn profile(trials: &[Trial], residuals: &[Vec<f64>], n_bins: usize, bin_of: impl
             let level = reference.iter().sum::<f64>() / reference.len() as f64;
             let dir = usize::from(tr.segs[q].load < tr.segs[q].prev);
             for (b, e) in rs {
-                bins[b].add(dir, e - level);
+                bins[b].push_residual(dir, e - level);
             }
         }
     }
@@ -194,8 +194,8 @@ mod tests {
         let mut spikes = Bin::default();
         for k in 0..20 {
             let dir = k % 2;
-            touch.add(dir, if dir == 0 { 2.0 } else { -1.0 });
-            spikes.add(dir, if (k / 2) % 2 == 0 { 2.0 } else { -2.0 });
+            touch.push_residual(dir, if dir == 0 { 2.0 } else { -1.0 });
+            spikes.push_residual(dir, if (k / 2) % 2 == 0 { 2.0 } else { -2.0 });
         }
         assert!((touch.systematic_ms() - touch.ms()).abs() < 1e-12, "{} {}", touch.systematic_ms(), touch.ms());
         assert!(spikes.systematic_ms() < 0.1 * spikes.ms(), "{} {}", spikes.systematic_ms(), spikes.ms());
