@@ -603,29 +603,3 @@ fn small_handling_spikes_are_named() {
         .count();
     assert!(named >= 7, "0.3σ handling spikes named on {named} of 8");
 }
-
-/// Handling spikes at 1σ (49 mV at every placement) under the lab's trial nuisances and a hand's
-/// touch logged at the landing ± 0.3 s are named: stage 2 judges their exclusion with the trials'
-/// gains when the gains pass (the gains' misfit otherwise swamps both baselines' held-out error,
-/// 0.0174 V with and without the exclusion, and stop 34's code named 5 of 8 such probes). Fresh
-/// seeds 99 100–99 800.
-#[test]
-fn spikes_under_trial_nuisances_are_named() {
-    let named = (0..8u64)
-        .map(|k| 99_100 + 100 * k)
-        .filter(|&seed| {
-            let recs = case_with(seed, |s| {
-                trial_nuisances(s);
-                s.effects.spike_v = 4.9e-2;
-            }, |p| {
-                p.touch_s = 0.5;
-                p.press_fraction = 0.12;
-                p.logging_offset_s = 0.0;
-                p.logging_jitter_s = 0.3;
-            });
-            let d = diagnose(&recs, &Default::default()).unwrap();
-            d.findings.iter().any(|f| f.effect == "handling_spikes")
-        })
-        .count();
-    assert!(named >= 7, "1σ handling spikes under the trial nuisances named on {named} of 8");
-}

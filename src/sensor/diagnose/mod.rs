@@ -18,8 +18,7 @@
 //!    and scored held out (`heldout`, solved through `normal`), or the simulator's prediction;
 //!    without a ramp, the window a hand's touch takes around the onsets (`touch`), whose samples
 //!    are then neither fitted nor scored;
-//! 2. the handling spikes' check (here): excluded only when that predicts held-out data better
-//!    (judged with the trials' gains when they pass: `nuisance::spike_check`);
+//! 2. the handling spikes' check (here): excluded only when that predicts held-out data better;
 //! 3. `locate` — where the baseline fails: the whiteness test and every effect's signature;
 //! 4. `select` — nuisances (`nuisance`), then the catalogue's terms (`terms`, with `clip` for
 //!    saturation) forward and backward through the `gate`; the other names that explain the same
@@ -185,15 +184,11 @@ fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
 fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool) -> Option<Outcome> {
     // 1. the baseline: the paper's model from part 1's step fits (or the simulator), held out
     let b = baseline::build(recs, opts, sim)?;
-    // 2. handling spikes are excluded only when that predicts held-out data better (with the
-    // trials' gains when they pass)
+    // 2. handling spikes are excluded only when that predicts held-out data better
     let (clean, xc) = if b.has_spikes { score(&b.d, &b.trials, &b.base_cfg, &b.hat)? } else { (b.base.clone(), b.xb.clone()) };
-    if b.has_spikes {
-        let (before, after) = nuisance::spike_check(&b, &clean);
-        if after > before {
-            let windows = signature(Effect::HandlingSpikes, &[], &b.trials, None, &b.report);
-            return Some(Outcome::SpikesRejected { windows, before, after, unit: b.report.unit.clone() });
-        }
+    if b.has_spikes && clean.heldout_rmse > b.base.heldout_rmse {
+        let windows = signature(Effect::HandlingSpikes, &[], &b.trials, None, &b.report);
+        return Some(Outcome::SpikesRejected { windows, before: b.base.heldout_rmse, after: clean.heldout_rmse, unit: b.report.unit.clone() });
     }
     // 3. locate: every test on the baseline's residuals (the clean fit), before any term is chosen
     // a clip: samples piled at one value, or an amplifier's rail before the noise (the levels'

@@ -53,20 +53,6 @@ pub(super) fn try_gains(d: &Design, trials: &[Trial], cur: &Config, cur_score: &
     Some((c, s, x, nt))
 }
 
-/// The held-out RMSE of the baseline fitted to the series as given and of the one fitted without
-/// the handling spikes (both scored without them; stage 2's check), each with the trials' gains
-/// when the gains pass their rule on the latter: a gain nuisance dominates both errors, and the
-/// exclusion's effect on the steps' fits would otherwise be lost in it (1σ spikes under ±3 % gains:
-/// 0.0174 V before and after).
-pub(super) fn spike_check(b: &Built, clean: &Score) -> (f64, f64) {
-    let plain = (b.base.heldout_rmse, clean.heldout_rmse);
-    let Some((c, with_gains, _, _)) = try_gains(&b.d, &b.trials, &b.base_cfg, clean, &b.hat) else { return plain };
-    match score_on(&b.d, &b.base_fit, &b.base_eval, &c, &b.hat) {
-        Some((given, _)) => (given.heldout_rmse, with_gains.heldout_rmse),
-        None => plain,
-    }
-}
-
 /// The rest relaxation's time constant is at most this share of the shortest trial.
 pub const REST_MAX_SHARE: f64 = 1.0 / 3.0;
 
