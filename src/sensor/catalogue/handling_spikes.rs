@@ -408,9 +408,10 @@ struct EdgeResidual {
 }
 
 impl EdgeResidual {
-    /// The windows the scan finds away from the ends, where the running median of [`high_pass`] is
-    /// one-sided and leaves the residual's slow part in (a handling spike is near the logged change,
-    /// not at the edge of the window searched around it, which reaches 3 s before and after).
+    /// The windows the scan finds, less those centred within `half` of the ends: there the running
+    /// median of [`high_pass`] is one-sided and leaves the residual's slow part in (a handling spike
+    /// is near the logged change, not at the edge of the window searched around it, which reaches
+    /// 3 s before and after).
     fn spikes(&self, sigma: f64, max_spike_s: f64) -> Vec<SpikeWindow> {
         let n = self.t.len();
         if n == 0 {
@@ -644,8 +645,8 @@ mod tests {
         }
     }
 
-    /// The first and last half-second of a step's window, where the running median is one-sided,
-    /// are not scanned: an excursion there (AR noise's slow part in family A's nulls, 2.5 s before
+    /// No window is reported centred in the first or last half-second of a step's window, where the
+    /// running median is one-sided: an excursion there (AR noise's slow part in family A's nulls, 2.5 s before
     /// the logged change) is not taken for a spike, while the same excursion nearer the change is.
     #[test]
     fn the_windows_ends_are_not_scanned() {
