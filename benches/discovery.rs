@@ -326,6 +326,15 @@ fn main() {
                 p.logging_jitter_s = 0.3
             }),
         ),
+        // creep of the conductance, seen through the divider, superposed over the load history
+        // (stop 36): the divider's top compresses it, so the unloading holds show more of it
+        (
+            "creep of the conductance through the divider, superposed",
+            Box::new(|s, _| {
+                s.effects.creep_superposed = true;
+                s.effects.creep_in_conductance = true
+            }),
+        ),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {

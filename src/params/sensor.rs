@@ -27,6 +27,9 @@ pub struct Effects {
     /// keeps going after later changes: Boltzmann superposition), instead of restarting at every
     /// step with the previous creep relaxing away at the first-order τ.
     pub creep_superposed: bool,
+    /// Creep of the sensor's conductance, seen through the read-out (a divider compresses it at
+    /// its top and shows it in full at its bottom), instead of creep of the response itself.
+    pub creep_in_conductance: bool,
     /// Fraction of (V_eq(F_max) − V_eq(F)) kept on the unloading branch.
     pub hysteresis: f64,
     /// Fraction of each step in a second, slower relaxation, and its time constant.
@@ -126,7 +129,7 @@ static RELAX: Schema = Schema { fields: || &["tau0_s", "tau_per_n_s"], tables: &
 static NOISE: Schema = Schema { fields: || &["sigma_v"], tables: &[] };
 static RIG: Schema = Schema { fields: || &["preload_g"], tables: &[] };
 static COVER: Schema = Schema { fields: || &["dome_stiffness_n_per_mm", "contact_diameter_mm", "relax_fraction", "tau_s"], tables: &[] };
-static CREEP: Schema = Schema { fields: || &["per_decade", "time_s", "superposed"], tables: &[] };
+static CREEP: Schema = Schema { fields: || &["per_decade", "time_s", "superposed", "in_conductance"], tables: &[] };
 static HYST: Schema = Schema { fields: || &["fraction"], tables: &[] };
 static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s", "warmup_tau_s"], tables: &[] };
@@ -233,9 +236,11 @@ impl SensorParams {
         };
         let before_noise = flag("saturation", "before_noise", "use true (an amplifier's rail, before the noise) or false (the ADC's reference, after it)");
         let superposed = flag("creep", "superposed", "use true (each change's creep keeps going after later changes) or false (creep restarts at every step)");
+        let in_conductance = flag("creep", "in_conductance", "use true (the conductance creeps, seen through the read-out) or false (the response creeps)");
         let eff = Effects {
             saturation_before_noise: before_noise,
             creep_superposed: superposed,
+            creep_in_conductance: in_conductance,
             creep_per_decade: num(&mut c, &e("creep"), "effects.creep", "per_decade", 0.0, 0.0, 10.0).unwrap_or(0.0),
             creep_time_s: num(&mut c, &e("creep"), "effects.creep", "time_s", 1.0, 1e-3, 1e5).unwrap_or(1.0),
             hysteresis: num(&mut c, &e("hysteresis"), "effects.hysteresis", "fraction", 0.0, 0.0, 1.0).unwrap_or(0.0),

@@ -97,6 +97,24 @@ impl SensorParams {
             c.vcc_v / (c.r_m_ohm * g + 1.0)
         }
     }
+    /// The divider's response to conductance `g` (S).
+    pub fn response(&self, g: f64) -> f64 {
+        let c = &self.circuit;
+        let x = c.r_m_ohm * g.max(0.0);
+        if c.sensor_high {
+            c.vcc_v * x / (x + 1.0)
+        } else {
+            c.vcc_v / (x + 1.0)
+        }
+    }
+    /// The conductance (S) the divider shows as response `v` (the inverse of [`Self::response`],
+    /// kept inside the divider's span).
+    pub fn conductance_of(&self, v: f64) -> f64 {
+        let c = &self.circuit;
+        let v = v.clamp(1e-9 * c.vcc_v, (1.0 - 1e-9) * c.vcc_v);
+        let x = if c.sensor_high { v / (c.vcc_v - v) } else { c.vcc_v / v - 1.0 };
+        x / c.r_m_ohm
+    }
     pub fn tau(&self, force_n: f64) -> f64 {
         (self.tau0_s + self.tau_per_n_s * force_n).max(1e-3)
     }
@@ -209,10 +227,12 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         }
         let first = (1.0 - e.second_fraction) * v_fast + e.second_fraction * v_slow;
         creep_now = creep(p, (f0, f), tk, &steps, (t_change, creep_carry));
+        // a creep of the conductance shows through the divider at the level the sensor is at
+        let creep_v = if e.creep_in_conductance && creep_now != 0.0 { p.response(p.conductance_of(first) + creep_now) - first } else { creep_now };
         let ramp = if e.drift_warmup_tau_s > 0.0 { e.drift_warmup_tau_s * (1.0 - (-tk / e.drift_warmup_tau_s).exp()) } else { tk };
         let drift = e.drift_v_per_s * ramp + e.wander_v * (2.0 * std::f64::consts::PI * tk / e.wander_period_s).sin();
         let rest = if rest_amp != 0.0 { rest_amp * (-tk / nu.rest_tau_s).exp() } else { 0.0 };
-        let v = first + creep_now + drift - v_cov + rest + spikes(e, &events, &spike_signs, tk);
+        let v = first + creep_v + drift - v_cov + rest + spikes(e, &events, &spike_signs, tk);
         time.push(tk);
         clean.push(v);
         fo.push(first);
@@ -240,17 +260,19 @@ fn load_now(cur_load: f64, touch: Option<&(f64, f64)>, next: Option<&(f64, f64, 
 
 /// Creep at `tk` under force `f` (from `f0` at no load): log-time growth under the current load,
 /// the previous creep (`creep_carry` at the last change, `t_change`) relaxing away; or, superposed,
-/// every change's own log-time creep, which keeps going.
+/// every change's own log-time creep, which keeps going. In conductance (S) when the effect says
+/// so, else in the response (V).
 fn creep(p: &SensorParams, (f0, f): (f64, f64), tk: f64, steps: &[TruthStep], (t_change, creep_carry): (f64, f64)) -> f64 {
     let e = &p.effects;
+    let level = |force_n: f64| if e.creep_in_conductance { p.conductance(force_n) } else { p.v_eq(force_n) };
     if e.creep_per_decade > 0.0 && e.creep_superposed {
         // every change so far adds its own log-time creep, which keeps going (superposition
         // over the load history); the change in progress counts from its landing
         let mut c = 0.0;
-        let mut before = p.v_eq(f0);
+        let mut before = level(f0);
         for st in steps {
             let since = (tk - st.t_land_s).max(0.0);
-            let after = p.v_eq(st.force_after_n);
+            let after = level(st.force_after_n);
             c += e.creep_per_decade * (after - before) * (1.0 + since / e.creep_time_s).log10();
             before = after;
         }
@@ -258,7 +280,7 @@ fn creep(p: &SensorParams, (f0, f): (f64, f64), tk: f64, steps: &[TruthStep], (t
     } else if e.creep_per_decade > 0.0 {
         let since = (tk - t_change).max(0.0);
         let decay = creep_carry * (-since / p.tau(f)).exp();
-        decay + e.creep_per_decade * (p.v_eq(f) - p.v_eq(f0)) * (1.0 + since / e.creep_time_s).log10()
+        decay + e.creep_per_decade * (level(f) - level(f0)) * (1.0 + since / e.creep_time_s).log10()
     } else {
         0.0
     }
@@ -398,6 +420,37 @@ pub(crate) mod tests {
         for w in load.windows(2) {
             assert!(w[1].k_v < w[0].k_v, "k must fall with weight");
         }
+    }
+
+    #[test]
+    fn the_divider_inverts() {
+        let (s, _) = defaults();
+        for g in [1e-5, 1e-4, 1e-3, 1e-2] {
+            let back = s.conductance_of(s.response(g));
+            assert!((back - g).abs() < 1e-9 * g.max(1e-12) + 1e-12, "{g} -> {back}");
+        }
+    }
+
+    /// A creep of the conductance shows through the divider compressed at its top: at the end of
+    /// the top hold, by the divider's relative slope 1/(1 + Rm·G) against the same creep of the
+    /// response.
+    #[test]
+    fn a_conductance_creep_is_compressed_at_the_dividers_top() {
+        let (mut s, p) = defaults();
+        s.noise_v = 0.0;
+        s.effects.creep_per_decade = 0.02;
+        s.effects.creep_superposed = true;
+        let (_, plain) = simulate(&defaults().0, &p, 0.0, None, 5);
+        let (_, in_v) = simulate(&s, &p, 0.0, None, 5);
+        s.effects.creep_in_conductance = true;
+        let (_, in_g) = simulate(&s, &p, 0.0, None, 5);
+        let top = in_v.steps.iter().filter(|x| x.phase == "loading").last().unwrap();
+        let k = ((top.t_land_s + p.top_hold_s - 0.5) * s.circuit.sample_rate_hz) as usize;
+        let (dv, dg) = (in_v.clean_v[k] - plain.clean_v[k], in_g.clean_v[k] - plain.clean_v[k]);
+        let x = s.circuit.r_m_ohm * s.conductance(top.force_after_n);
+        assert!(dv > 0.0 && dg > 0.0, "{dv} {dg}");
+        let want = dv / (1.0 + x);
+        assert!((dg / want - 1.0).abs() < 0.1, "conductance creep {dg} V, expected ≈ {want} V (response creep {dv} V, Rm·G {x})");
     }
 
     #[test]
