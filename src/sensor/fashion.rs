@@ -36,6 +36,24 @@ impl Readout {
         };
         (u.is_finite() && u > 0.0).then_some(u)
     }
+    /// dV/du at response `v` (u as in [`Readout::divider_u`]): how a change of the sensor's
+    /// conductance shows in the response at that level (a divider compresses it toward either end).
+    pub fn slope_du(self, v: f64) -> f64 {
+        match self {
+            Readout::DividerHigh { vcc_v, .. } => (vcc_v - v).powi(2) / vcc_v,
+            Readout::DividerLow { vcc_v, .. } => -v * v / vcc_v,
+            Readout::Ohm => -v * v,
+        }
+    }
+    /// The response at u (the inverse of [`Readout::divider_u`]); None outside the read-out's span.
+    pub fn response_of_u(self, u: f64) -> Option<f64> {
+        let v = match self {
+            Readout::DividerHigh { vcc_v, .. } => vcc_v * (1.0 - 1.0 / u),
+            Readout::DividerLow { vcc_v, .. } => vcc_v / u,
+            Readout::Ohm => 1.0 / u,
+        };
+        (u > 0.0 && v.is_finite()).then_some(v)
+    }
     pub fn response(self, g: f64) -> f64 {
         match self {
             Readout::DividerHigh { vcc_v, r_m_ohm } => vcc_v * r_m_ohm * g / (r_m_ohm * g + 1.0),

@@ -104,7 +104,8 @@ fn effects(t: &mut String, d: &Diagnosis) {
                 if let Some(v) = num(p, "per_decade_fraction") {
                     // restarting at every step, or superposed over the load history
                     let superposed = p.get("superposed").and_then(|b| b.as_bool()).unwrap_or(false);
-                    let _ = writeln!(t, "[effects.creep]\nper_decade = {}\ntime_s = {}\nsuperposed = {superposed}", fmt(v), fmt(num(p, "time_s").unwrap_or(1.0)));
+                    let in_conductance = p.get("in_conductance").and_then(|b| b.as_bool()).unwrap_or(false);
+                    let _ = writeln!(t, "[effects.creep]\nper_decade = {}\ntime_s = {}\nsuperposed = {superposed}\nin_conductance = {in_conductance}", fmt(v), fmt(num(p, "time_s").unwrap_or(1.0)));
                 }
             }
             "hysteresis" => {

@@ -11,6 +11,8 @@ pub const EXPLANATION: &str = "the response keeps changing slowly under a consta
 
 pub const SUPERPOSED_EXPLANATION: &str = "the response keeps changing slowly after every change of load, and the change carries over to the next steps: the rubber creeps (viscoelastic flow), modelled as every change's own log-time creep superposed over the load history (it predicts the held-out data better than the other names in this place)";
 
+pub const THROUGH_EXPLANATION: &str = "the sensor's conductance keeps changing slowly after every change of load, and the change carries over to the next steps: the rubber creeps (viscoelastic flow), modelled as every change's own log-time creep of the conductance superposed over the load history, seen through the read-out (a divider shows it compressed at its top and in full at its bottom; it predicts the held-out data better than the other names in this place)";
+
 /// The log-time clock's unit (s).
 pub const TIME_S: f64 = 1.0;
 

@@ -53,6 +53,7 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
             prior0: None,
             given_t: series.given_t.clone(),
             given_v: series.given_v.clone(),
+            readout: analyze::readout(rec),
         });
     }
     out

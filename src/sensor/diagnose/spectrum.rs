@@ -187,6 +187,7 @@ pub(super) fn thinned(trials: &[Trial], max_rows: usize) -> Vec<Trial> {
             // the series as given is not used by the spectrum's search
             given_t: Vec::new(),
             given_v: Vec::new(),
+            readout: tr.readout,
         })
         .collect()
 }
