@@ -162,21 +162,6 @@ pub(super) fn merged(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Option<([Eff
             let pair_has = |e: &Effect| cur.effects[i] == *e || cur.effects[j] == *e;
             for &e in CATALOGUE.iter().filter(|e| physics(e) && (!cur.effects.contains(e) || (**e == Effect::Creep && pair_has(e)))) {
                 let Some((c, s, x)) = in_place(e, &wo, ctx) else { continue };
-                if std::env::var("TF_DUMP").is_ok() && c.creep_through && wo.effects.is_empty() {
-                    use std::io::Write;
-                    let Some((sc, xc)) = score(ctx.d, ctx.trials, cur, ctx.hat) else { continue };
-                    for ((k, a), b) in sc.unit_keys.iter().zip(&sc.units).zip(&s.units) {
-                        eprintln!("unit {k:?} n {}: cur {:.3e} thr {:.3e}", sc.unit_n[sc.unit_keys.iter().position(|q| q == k).unwrap()], a, b);
-                    }
-                    let mut f = std::fs::File::create("/tmp/s36/dump.csv").unwrap();
-                    let mut buf = Vec::new();
-                    writeln!(f, "trial,t,v,cur,thr").unwrap();
-                    for (k, tr) in ctx.trials.iter().enumerate() {
-                        for (j, &t) in tr.t.iter().enumerate() {
-                            writeln!(f, "{k},{t},{},{},{}", tr.v[j], predict(ctx.d, k, tr, t, &xc, cur, ctx.hat, &mut buf), predict(ctx.d, k, tr, t, &x, &c, ctx.hat, &mut buf)).unwrap();
-                        }
-                    }
-                }
                 let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
                 let z_two_over_one = paired_z(&s.units, &cur_score.units);
                 if explains && z_two_over_one < Z_SEPARATE && s.heldout_rmse <= cur_score.heldout_rmse && best.as_ref().is_none_or(|b| s.heldout_rmse < b.1.score.heldout_rmse) {
@@ -210,9 +195,7 @@ fn in_place(e: Effect, wo: &Config, ctx: &Ctx) -> Option<(Config, Score, Vec<f64
     } else {
         vec![c]
     };
-    let v: Vec<_> = forms.into_iter().filter_map(|c| score(ctx.d, ctx.trials, &c, ctx.hat).map(|(s, x)| (c, s, x))).collect();
-    if std::env::var("TF_DBG").is_ok() { for (c, s, x) in &v { eprintln!("in_place {:?} in {:?}: sup {} thr {}: {:.4e} x {:?}", e, wo.effects, c.creep_superposed, c.creep_through, s.heldout_rmse, term_col(ctx.d, c, e).checked_sub(0).and_then(|k| x.get(k))); } }
-    v.into_iter().min_by(|a, b| a.1.heldout_rmse.total_cmp(&b.1.heldout_rmse))
+    forms.into_iter().filter_map(|c| score(ctx.d, ctx.trials, &c, ctx.hat).map(|(s, x)| (c, s, x))).min_by(|a, b| a.1.heldout_rmse.total_cmp(&b.1.heldout_rmse))
 }
 
 /// How many of a second relaxation's time constants a hold must last for the recording to show it
