@@ -123,7 +123,7 @@ fn the_diagnosiss_shared_modules_call_no_stage() {
         text.lines().map(|l| l.split("//").next().unwrap_or("")).collect::<Vec<_>>().join("\n")
     };
     let shared = ["model", "first_order", "input", "normal", "heldout", "gate", "parameters"];
-    let stages = ["baseline", "touch", "locate", "select", "nuisance", "terms", "clip", "alternatives", "spectrum", "refit", "report"];
+    let stages = ["baseline", "touch", "locate", "select", "nuisance", "terms", "clip", "alternatives", "through", "spectrum", "refit", "report"];
     let mut defined = Vec::new();
     for s in stages {
         for line in code(s).lines() {

@@ -50,6 +50,7 @@ mod report;
 mod select;
 mod spectrum;
 mod terms;
+mod through;
 mod touch;
 
 use super::analyze::{self, Options, Prepared, Report};
@@ -72,6 +73,7 @@ use select::Selected;
 use serde::Serialize;
 use spectrum::*;
 use terms::*;
+use through::*;
 
 pub use super::catalogue::Effect;
 pub use alternatives::{Alternative, Z_SEPARATE};

@@ -82,14 +82,6 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
             c.clip_rail = clip_steps.rail;
             vec![c]
         }
-        Effect::Creep => {
-            // restarting at every step; and the conductance creeping, superposed over the load
-            // history and seen through the read-out, when every trial's read-out is known
-            let mut c = cur.clone();
-            c.effects.push(e);
-            let through = (std::env::var("TF_FWD_THR").is_ok() && trials.iter().all(|tr| tr.readout.is_some())).then(|| Config { creep_superposed: true, creep_through: true, ..c.clone() });
-            std::iter::once(c).chain(through).collect()
-        }
         _ => {
             let mut c = cur.clone();
             c.effects.push(e);
@@ -114,9 +106,6 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
         }
     }
     let (mut c, mut b0) = pick?;
-    if c.creep_through {
-        (c, b0) = through_exactly(d, trials, hat, (c, b0));
-    }
     // a second relaxation already in the model: its τ2 is refitted with the new term (a
     // term left out biases it — drift lengthens τ2), by a local search on the grid
     if e != Effect::SecondTimeConstant && c.effects.contains(&Effect::SecondTimeConstant) {
@@ -194,7 +183,6 @@ pub(super) fn without(cur: &Config, idx: usize) -> Config {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::sensor::SensorParams;
 
     /// Each effect added as a candidate, with its shape parameters, and removed again gives the
     /// model back: the effect and the shape that goes with it (a clip's steps, a warm-up's τ, a
@@ -222,33 +210,6 @@ mod tests {
                 "{e:?}"
             );
             assert_eq!((back.creep_superposed, back.creep_through, back.clip_rail), (false, false, false), "{e:?}");
-        }
-    }
-
-    /// Creep's form is chosen on the training fit: the conductance's creep superposed over the
-    /// load history through the divider for a sensor whose conductance creeps that way (family A,
-    /// 0.3 % of each change per decade), the restarting log-time form for family A's own creep of
-    /// the response; without the read-out, only the restarting form is offered.
-    #[test]
-    fn creep_takes_the_form_the_training_fit_prefers() {
-        let through = |s: &mut SensorParams| {
-            s.effects.creep_per_decade = 0.003;
-            s.effects.creep_superposed = true;
-            s.effects.creep_in_conductance = true;
-        };
-        let restarting = |s: &mut SensorParams| s.effects.creep_per_decade = 0.01;
-        for (f, want) in [(&through as &dyn Fn(&mut SensorParams), true), (&restarting, false)] {
-            let b = fixture::built(&fixture::recs(36_000, f));
-            let steps = ClipSteps::of(&b.trials, None, false);
-            let ctx = fixture::ctx(&b, &steps, &b.hat);
-            let c = candidate(Effect::Creep, &b.base_cfg, &ctx).unwrap();
-            assert_eq!((c.creep_superposed, c.creep_through), (want, want));
-            if want {
-                let mut blind = b.trials.clone();
-                blind.iter_mut().for_each(|tr| tr.readout = None);
-                let c = candidate(Effect::Creep, &b.base_cfg, &Ctx { trials: &blind, ..fixture::ctx(&b, &steps, &b.hat) }).unwrap();
-                assert!(!c.creep_through, "offered without the read-out");
-            }
         }
     }
 }
