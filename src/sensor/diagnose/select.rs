@@ -198,9 +198,6 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
     let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, hat, mut findings, mut decisions, mut nuisances, exact: round0_exact } =
         select(&b.base_cfg, clean.clone(), xc.to_vec(), b.hat.clone(), &Ctx { d, trials, hat: &Hat::default(), clip, clip_steps, med_tau }, report);
     let mut spectrum_exact: Option<Exact> = None;
-    // the conductance's creep through the read-out in place of the slow terms it predicts clearly
-    // better than (named from here on as any finding is)
-    replace_slow(d, trials, &hat, (&mut cur, &mut cur_score, &mut cur_x), &mut findings, &mut decisions, clip, report);
     // honest naming: the other effects that explain each finding's residual about as well; a name
     // goes to the best explanation (an effect in a form the forward step does not offer may
     // predict clearly better in the named one's place: it takes the name)
@@ -250,6 +247,17 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
             }
         }
         break;
+    }
+    // the conductance's creep through the read-out in place of the slow terms it predicts clearly
+    // better than, once the catalogue's names stand; the alternatives then for the model with it
+    if replace_slow(d, trials, &hat, (&mut cur, &mut cur_score, &mut cur_x), &mut findings, &mut decisions, clip, report) {
+        for (e, alts, _) in alternatives::alternatives(&cur, &cur_score, &actx) {
+            if let Some(f) = findings.iter_mut().find(|f| f.effect == e.name()) {
+                f.alternatives = alts;
+                f.ambiguity = None;
+                alternatives::apply(f);
+            }
+        }
     }
     // the relaxation spectrum (issue 15): the exact forms of relaxation (creep, one second time
     // constant) give way to a spectrum over every change when it predicts the held-out data
