@@ -195,7 +195,7 @@ fn backward(
 pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>, clip_steps: &ClipSteps, actuator: bool) -> Selected {
     let (d, trials, report) = (&b.d, b.trials.as_slice(), &b.report);
     let med_tau = median_tau(&b.trials);
-    let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, hat, mut findings, mut decisions, mut nuisances, exact: round0_exact } =
+    let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, mut hat, mut findings, mut decisions, mut nuisances, exact: round0_exact } =
         select(&b.base_cfg, clean.clone(), xc.to_vec(), b.hat.clone(), &Ctx { d, trials, hat: &Hat::default(), clip, clip_steps, med_tau }, report);
     let mut spectrum_exact: Option<Exact> = None;
     // honest naming: the other effects that explain each finding's residual about as well; a name
@@ -250,7 +250,8 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
     }
     // the conductance's creep through the read-out in place of the slow terms it predicts clearly
     // better than, once the catalogue's names stand; the alternatives then for the model with it
-    if replace_slow(d, trials, &hat, (&mut cur, &mut cur_score, &mut cur_x), &mut findings, &mut decisions, clip, report) {
+    if replace_slow(d, trials, &mut hat, (&mut cur, &mut cur_score, &mut cur_x), &mut findings, &mut decisions, clip, report) {
+        let actx = Ctx { d, trials, hat: &hat, clip, clip_steps, med_tau };
         for (e, alts, _) in alternatives::alternatives(&cur, &cur_score, &actx) {
             if let Some(f) = findings.iter_mut().find(|f| f.effect == e.name()) {
                 f.alternatives = alts;

@@ -61,7 +61,7 @@ fn best_in_place(d: &Design, trials: &[Trial], hat: &Hat, cur: &Config) -> Optio
 pub(super) fn replace_slow(
     d: &Design,
     trials: &[Trial],
-    hat: &Hat,
+    hat: &mut Hat,
     (cur, cur_score, cur_x): (&mut Config, &mut Score, &mut Vec<f64>),
     findings: &mut Vec<Finding>,
     decisions: &mut Vec<Decision>,
@@ -99,6 +99,21 @@ pub(super) fn replace_slow(
     *cur = c;
     *cur_score = s;
     *cur_x = x;
+    // its u is built on the levels (two-stage): take them from the model with it (the baseline's
+    // have absorbed part of the creep), and take it exactly again
+    for _ in 0..2 {
+        let mut level = vec![0.0];
+        level.extend(cur_x[d.n_trials..d.n_levels()].iter().copied());
+        let next = Hat { loads: d.loads.clone(), level };
+        let Some((b, _)) = train_bic(d, trials, cur, &next) else { break };
+        let (c, _) = through_exactly(d, trials, &next, (cur.clone(), b));
+        let Some((s, x)) = score(d, trials, &c, &next) else { break };
+        (*hat, *cur, *cur_score, *cur_x) = (next, c, s, x);
+    }
+    if let Some(f) = findings.last_mut() {
+        f.heldout_rmse_after = cur_score.heldout_rmse;
+        f.term.params = term_params(d, cur, cur_x, Effect::Creep, hat);
+    }
     true
 }
 
@@ -131,7 +146,8 @@ mod tests {
             let sel = select::select(&b.base_cfg, clean, xc, b.hat.clone(), &fixture::ctx(&b, &steps, &b.hat), &b.report);
             let (mut cur, mut s, mut x, mut findings, mut decisions) = (sel.cfg, sel.score, sel.x, sel.findings, sel.decisions);
             let named: Vec<_> = findings.iter().map(|f| f.effect).collect();
-            replace_slow(&b.d, &b.trials, &sel.hat, (&mut cur, &mut s, &mut x), &mut findings, &mut decisions, None, &b.report);
+            let mut hat = sel.hat.clone();
+            replace_slow(&b.d, &b.trials, &mut hat, (&mut cur, &mut s, &mut x), &mut findings, &mut decisions, None, &b.report);
             assert_eq!(cur.creep_through, want, "case {k}: {named:?} -> {:?}; {:?}", findings.iter().map(|f| f.effect).collect::<Vec<_>>(), decisions.last());
             if want {
                 let f = findings.iter().find(|f| f.effect == "creep").unwrap();
