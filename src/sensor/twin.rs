@@ -105,7 +105,12 @@ fn effects(t: &mut String, d: &Diagnosis) {
                     // restarting at every step, or superposed over the load history
                     let superposed = p.get("superposed").and_then(|b| b.as_bool()).unwrap_or(false);
                     let in_conductance = p.get("in_conductance").and_then(|b| b.as_bool()).unwrap_or(false);
-                    let _ = writeln!(t, "[effects.creep]\nper_decade = {}\ntime_s = {}\nsuperposed = {superposed}\nin_conductance = {in_conductance}", fmt(v), fmt(num(p, "time_s").unwrap_or(1.0)));
+                    let _ = writeln!(
+                        t,
+                        "[effects.creep]\nper_decade = {}\ntime_s = {}\nsuperposed = {superposed}\nin_conductance = {in_conductance}",
+                        fmt(v),
+                        fmt(num(p, "time_s").unwrap_or(1.0))
+                    );
                 }
             }
             "hysteresis" => {
