@@ -173,10 +173,11 @@ pub(super) fn merged(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Option<([Eff
     best
 }
 
-/// Effect `e` put in the model `wo` (the named term dropped), scored. Creep is tried in both its
-/// forms, restarting at every step and superposed over the load history (every change's own creep
-/// keeps going: a creep that carries over from step to step), and the one that predicts held-out
-/// data better stands in. The forward selection keeps the restarting form: offered there too (in
+/// Effect `e` put in the model `wo` (the named term dropped), scored. Creep is tried in its forms,
+/// restarting at every step and superposed over the load history (every change's own creep keeps
+/// going: a creep that carries over from step to step), and, with every trial's read-out known, the
+/// conductance's creep superposed and seen through the read-out (taken exactly); the one that
+/// predicts held-out data best stands in. The forward selection keeps the restarting form: offered there too (in
 /// the form the gate passes), a superposed creep entered beside a true second relaxation and took
 /// its name, and was named on nulls (family A's actuator variation: second τ 0.75 → 0.62, a null
 /// 0 → 1/8; family B: three nulls named creep); named here, it changes only what is named.

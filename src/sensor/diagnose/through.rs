@@ -72,9 +72,6 @@ pub(super) fn replace_slow(
     let gain = s.gain_over(cur_score);
     let z = paired_z(&cur_score.units, &s.units);
     let accepted = gain > SPECTRUM_MARGIN && z >= MIN_Z;
-    if std::env::var("TF_DBG").is_ok() {
-        eprintln!("through: gone {gone:?} from {:?}: gain {gain:.3} z {z:.1} frac {:?}", cur.effects, x.get(term_col(d, &c, Effect::Creep)));
-    }
     let step = decisions.last().map(|x| x.step + 1).unwrap_or(0);
     decisions.push(Decision { step, candidate: Effect::Creep.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: s.bic - cur_score.bic, accepted });
     if !accepted {
