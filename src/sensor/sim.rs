@@ -89,13 +89,7 @@ impl SensorParams {
         self.g_ref_s * force_n.max(0.0).powf(self.exponent)
     }
     pub fn v_eq(&self, force_n: f64) -> f64 {
-        let c = &self.circuit;
-        let g = self.conductance(force_n);
-        if c.sensor_high {
-            c.vcc_v * c.r_m_ohm * g / (c.r_m_ohm * g + 1.0)
-        } else {
-            c.vcc_v / (c.r_m_ohm * g + 1.0)
-        }
+        self.response(self.conductance(force_n))
     }
     /// The divider's response to conductance `g` (S).
     pub fn response(&self, g: f64) -> f64 {

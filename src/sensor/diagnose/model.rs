@@ -223,6 +223,13 @@ pub(super) struct Design {
 }
 
 impl Design {
+    /// The levels per load in a solution `x` (the reference load's at 0): what the terms are built
+    /// on once the model with them has re-estimated the levels (two-stage).
+    pub(super) fn levels_in(&self, x: &[f64]) -> Hat {
+        let mut level = vec![0.0];
+        level.extend(x[self.n_trials..self.n_levels()].iter().copied());
+        Hat { loads: self.loads.clone(), level }
+    }
     pub(super) fn n_levels(&self) -> usize {
         self.n_trials + if self.prior { 0 } else { self.loads.len().saturating_sub(1) }
     }

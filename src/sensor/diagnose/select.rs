@@ -24,7 +24,6 @@ pub(super) struct Selected {
 /// context's `hat` is not read: the levels start at `hat` and move with the model.
 pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ctx: &Ctx, report: &Report) -> Selected {
     let (d, trials, clip) = (ctx.d, ctx.trials, ctx.clip);
-    let loads = d.loads.clone();
     let mut hat = hat;
     let mut cur = base_cfg.clone();
     let (mut cur_score, mut cur_x) = (clean, xc);
@@ -82,9 +81,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
         // (the baseline's levels have absorbed part of the effects), and refit
         if !d.prior {
             for _ in 0..2 {
-                let mut level = vec![0.0];
-                level.extend(cur_x[d.n_trials..d.n_levels()].iter().copied());
-                let next = Hat { loads: loads.clone(), level };
+                let next = d.levels_in(&cur_x);
                 let Some((s2, x2)) = score(d, trials, &cur, &next) else { break };
                 hat = next;
                 cur_score = s2;

@@ -1,5 +1,5 @@
 //! The conductance's creep through the read-out in place of the slow terms (stage 4, once the
-//! catalogue's forward and backward steps stand, before honest naming): every change's own
+//! catalogue's forward and backward steps and honest naming stand): every change's own
 //! log-time creep of the sensor's conductance, superposed over the load history and seen through the
 //! read-out (`TrialSteps::creep_through_column`, taken exactly at its fitted size by
 //! `terms::through_exactly`).
@@ -99,9 +99,7 @@ pub(super) fn replace_slow(
     // its u is built on the levels (two-stage): take them from the model with it (the baseline's
     // have absorbed part of the creep), and take it exactly again
     for _ in 0..2 {
-        let mut level = vec![0.0];
-        level.extend(cur_x[d.n_trials..d.n_levels()].iter().copied());
-        let next = Hat { loads: d.loads.clone(), level };
+        let next = d.levels_in(cur_x);
         let Some((b, _)) = train_bic(d, trials, cur, &next) else { break };
         let (c, _) = through_exactly(d, trials, &next, (cur.clone(), b));
         let Some((s, x)) = score(d, trials, &c, &next) else { break };
