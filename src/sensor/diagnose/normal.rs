@@ -74,19 +74,34 @@ pub(super) fn accumulate(d: &Design, trials: &[Trial], rows: &[(usize, usize)], 
     }
 }
 
-/// Blocks each hold is cut into when one recording's load levels are not each held in at least two
-/// steps (a single step up and down): leaving a step out would leave its level without data.
+/// Fewest blocks each hold is cut into when one recording's load levels are not each held in at
+/// least two steps (a single step up and down): leaving a step out would leave its level without
+/// data.
 pub(super) const HOLD_BLOCKS: usize = 10;
 
-/// [`HOLD_BLOCKS`] when the held-out units are blocks of holds, else 0.
+/// Most blocks per hold.
+pub(super) const MAX_HOLD_BLOCKS: usize = 30;
+
+/// Shortest block, in seconds, when long holds are cut into more than [`HOLD_BLOCKS`]: far longer
+/// than a sensor's noise stays correlated (a second or so), so the blocks are about independent
+/// units of the paired test. With ten blocks a hold of ten minutes is nine units, and an effect
+/// the read-out shows in one hold only (a creep at the divider's top is compressed, its recovery
+/// at zero load is not) could never reach the test's z however large its gain.
+pub(super) const HOLD_BLOCK_S: f64 = 15.0;
+
+/// The blocks per hold when the held-out units are blocks of holds, else 0: [`HOLD_BLOCKS`], or
+/// as many blocks of at least [`HOLD_BLOCK_S`] as the shortest hold has room for (at most
+/// [`MAX_HOLD_BLOCKS`]).
 pub(super) fn hold_blocks(trials: &[Trial]) -> usize {
     let [tr] = trials else { return 0 };
     let held = |l: f64| tr.segs.iter().filter(|s| s.load == l).count();
-    if tr.segs.iter().any(|s| held(s.load) < 2) {
-        HOLD_BLOCKS
-    } else {
-        0
+    if !tr.segs.iter().any(|s| held(s.load) < 2) {
+        return 0;
     }
+    let end = tr.t.last().copied().unwrap_or(0.0);
+    let shortest = (0..tr.segs.len()).map(|s| tr.segs.get(s + 1).map(|g| g.t0).unwrap_or(end) - tr.segs[s].t0).fold(f64::INFINITY, f64::min);
+    let by_time = if shortest.is_finite() { (shortest / HOLD_BLOCK_S).floor() as usize } else { 0 };
+    by_time.clamp(HOLD_BLOCKS, MAX_HOLD_BLOCKS)
 }
 
 /// The block unit of a sample of a single recording: (0, 0) before the first onset, else
