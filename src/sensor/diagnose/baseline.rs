@@ -293,20 +293,20 @@ fn design(report: &Report, trials: &[Trial], prior: bool) -> Option<Design> {
 /// constants, or the simulator's.
 fn levels(recs: &[Recording], sim: Option<&SimBaseline>, d: &Design, trials: &[Trial]) -> Option<Hat> {
     let loads = &d.loads;
-    let level = match sim {
+    let (level, offset) = match sim {
         Some(sb) => {
             let kind = recs[0].protocol_kind;
-            loads.iter().map(|&l| kind.grams(l).map(|g| sb.sensor.v_eq((g + sb.preload_g) / 1000.0 * crate::sensor::sim::G_N_PER_KG)).unwrap_or(0.0)).collect()
+            (loads.iter().map(|&l| kind.grams(l).map(|g| sb.sensor.v_eq((g + sb.preload_g) / 1000.0 * crate::sensor::sim::G_N_PER_KG)).unwrap_or(0.0)).collect(), vec![])
         }
         None => {
             let level_cfg = Config { tau_free: false, ..Config::first_order() };
             let x0 = solve(d, trials, &all_rows(trials), &level_cfg, &Hat::default())?;
             let mut level = vec![0.0];
             level.extend(x0[trials.len()..trials.len() + loads.len() - 1].iter().copied());
-            level
+            (level, x0[..trials.len()].to_vec())
         }
     };
-    Some(Hat { loads: loads.clone(), level })
+    Some(Hat { loads: loads.clone(), level, offset })
 }
 
 #[cfg(test)]

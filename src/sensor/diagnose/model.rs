@@ -194,12 +194,21 @@ impl Config {
 #[derive(Debug, Clone, Default)]
 pub(super) struct Hat {
     pub(super) loads: Vec<f64>,
+    /// Per load, relative to the reference (zero) load's, which is 0.
     pub(super) level: Vec<f64>,
+    /// Per trial, its response at the reference load (its offset; empty when the levels are
+    /// absolute, as the simulator's are).
+    pub(super) offset: Vec<f64>,
 }
 
 impl Hat {
     pub(super) fn level_of(&self, l: f64) -> f64 {
         self.loads.iter().position(|&x| x == l).map(|i| self.level[i]).unwrap_or(0.0)
+    }
+    /// Trial `i`'s response at load `l`, its offset included: what a read-out's conversion to the
+    /// sensor's conductance needs (a preload keeps the response off zero at "zero" weight).
+    pub(super) fn response_of(&self, i: usize, l: f64) -> f64 {
+        self.offset.get(i).copied().unwrap_or(0.0) + self.level_of(l)
     }
     pub(super) fn max_level(&self) -> f64 {
         self.loads.iter().zip(&self.level).max_by(|a, b| a.0.partial_cmp(b.0).unwrap()).map(|x| *x.1).unwrap_or(0.0)
@@ -228,7 +237,7 @@ impl Design {
     pub(super) fn levels_in(&self, x: &[f64]) -> Hat {
         let mut level = vec![0.0];
         level.extend(x[self.n_trials..self.n_levels()].iter().copied());
-        Hat { loads: self.loads.clone(), level }
+        Hat { loads: self.loads.clone(), level, offset: x[..self.n_trials].to_vec() }
     }
     pub(super) fn n_levels(&self) -> usize {
         self.n_trials + if self.prior { 0 } else { self.loads.len().saturating_sub(1) }
@@ -429,7 +438,7 @@ impl TrialSteps<'_> {
     pub(super) fn du(&self, q: usize) -> Option<f64> {
         let sg = &self.tr.segs[q];
         let ro = self.tr.readout?;
-        Some(ro.divider_u(self.hat.level_of(sg.load))? - ro.divider_u(self.hat.level_of(sg.prev))?)
+        Some(ro.divider_u(self.hat.response_of(self.i, sg.load))? - ro.divider_u(self.hat.response_of(self.i, sg.prev))?)
     }
 
     /// The superposed creep of the conductance seen through the read-out, at `t` with step `cur`
@@ -443,7 +452,7 @@ impl TrialSteps<'_> {
         // by 0.05 %)
         let segs = &self.tr.segs;
         let h = self.tr.half_span_s;
-        let first = self.hat.level_of(segs[0].prev) + (0..=cur).map(|q| self.dv(q) * rise(t, self.t0(q), self.tau(q), h, segs[q].input)).sum::<f64>();
+        let first = self.hat.response_of(self.i, segs[0].prev) + (0..=cur).map(|q| self.dv(q) * rise(t, self.t0(q), self.tau(q), h, segs[q].input)).sum::<f64>();
         let clock = |q: usize| (1.0 + (t - self.t0(q)).max(0.0) / catalogue::creep::TIME_S).log10();
         let creep_u = (0..=cur).map(|q| self.du(q).unwrap_or(0.0) * clock(q)).sum::<f64>();
         // exactly at the fraction given (a large creep spans much of the read-out's curve)
@@ -594,7 +603,7 @@ mod tests {
     fn the_conductance_creep_is_seen_through_the_readout() {
         let vcc = 3.3;
         let tr = Trial { readout: Some(crate::sensor::fashion::Readout::DividerHigh { vcc_v: vcc, r_m_ohm: 1000.0 }), ..trial(0.0) };
-        let hat = Hat { loads: vec![0.0, 1.0, 2.0], level: vec![0.0, 1.0, 1.6] };
+        let hat = Hat { loads: vec![0.0, 1.0, 2.0], level: vec![0.0, 1.0, 1.6], offset: vec![] };
         let cfg = Config { creep_superposed: true, creep_through: true, ..Config::first_order() };
         let steps = TrialSteps { i: 0, tr: &tr, cfg: &cfg, hat: &hat, l0: 0.0, top: 1.6 };
         let u = |v: f64| vcc / (vcc - v);
@@ -614,6 +623,20 @@ mod tests {
         // per unit of u the top shows less than the bottom (a divider compresses its top)
         let per_u = |cur: usize, t: f64| steps.creep_through_column(cur, t) / (0..=cur).map(|q| steps.du(q).unwrap() * log(t, steps.t0(q))).sum::<f64>();
         assert!(per_u(1, 19.0) < 0.6 * per_u(0, 8.5), "{} {}", per_u(1, 19.0), per_u(0, 8.5));
+        // a trial whose response sits at 0.4 V at zero weight (a preload): its offset is part of
+        // the level the read-out converts (the levels are relative to it), so the column is the
+        // same as with the absolute levels and no offset
+        let pre = Hat { offset: vec![0.4], ..hat.clone() };
+        let abs = Hat { level: vec![0.4, 1.4, 2.0], ..hat.clone() };
+        let (with_offset, absolute) = (TrialSteps { hat: &pre, ..steps }, TrialSteps { hat: &abs, ..steps });
+        for &t in &[4.0, 8.5, 19.0] {
+            let cur = usize::from(t >= 9.0);
+            let (a, b) = (with_offset.creep_through_column(cur, t), absolute.creep_through_column(cur, t));
+            assert!((a - b).abs() < 1e-12, "t {t}: {a} vs {b}");
+        }
+        // left out, the offset would overstate the creep at the top (by 16 % at t 19 here)
+        let (a, wrong) = (with_offset.creep_through_column(1, 19.0), steps.creep_through_column(1, 19.0));
+        assert!(wrong > 1.1 * a, "{wrong} vs {a}");
         let plain = Trial { readout: None, ..tr.clone() };
         let steps = TrialSteps { tr: &plain, ..steps };
         assert_eq!(steps.creep_through_column(1, 19.0), catalogue::creep::superposed_column(&steps, 1, 19.0));
