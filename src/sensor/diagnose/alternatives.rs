@@ -141,7 +141,7 @@ fn keep_if_clearly_better(better: &mut Option<Better>, e: Effect, (c, s, x): (&C
     // the conductance's creep through the read-out takes a name only by the margin it needs to
     // take the slow terms' place (`through::replace_slow`): with 3 % it took a true second time
     // constant's name under an actuator's ramps (family A tuning seed 28 680)
-    let least = if c.creep_through { SPECTRUM_MARGIN } else { MIN_ROBUST_GAIN };
+    let least = if c.creep.through() { SPECTRUM_MARGIN } else { MIN_ROBUST_GAIN };
     if z_sep <= -MIN_Z && s.gain_over(cur_score) >= least && better.as_ref().is_none_or(|b| -z_sep > b.z) {
         *better = Some(Better { effect: e, cfg: c.clone(), score: s.clone(), x: x.to_vec(), z: -z_sep });
     }
@@ -188,11 +188,10 @@ pub(super) fn merged(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Option<([Eff
 fn in_place(e: Effect, wo: &Config, ctx: &Ctx) -> Option<(Config, Score, Vec<f64>)> {
     let c = candidate(e, wo, ctx)?;
     let forms = if e == Effect::Creep {
-        let c = Config { creep_superposed: false, creep_through: false, creep_through_at: None, ..c };
-        let mut sup = c.clone();
-        sup.creep_superposed = true;
+        let c = Config { creep: CreepForm::Restarting, ..c };
+        let sup = Config { creep: CreepForm::Superposed, ..c.clone() };
         // the conductance creeping, seen through the read-out (when every trial's is known)
-        let through = ctx.trials.iter().all(|tr| tr.readout.is_some()).then(|| Config { creep_through: true, ..sup.clone() }).and_then(|c| {
+        let through = ctx.trials.iter().all(|tr| tr.readout.is_some()).then(|| Config { creep: CreepForm::Through { at: None }, ..c.clone() }).and_then(|c| {
             let b = train_bic(ctx.d, ctx.trials, &c, ctx.hat)?.0;
             Some(terms::through_exactly(ctx.d, ctx.trials, ctx.hat, (c, b)).0)
         });

@@ -87,18 +87,35 @@ pub(super) struct Config {
     pub(super) drift_tau: Option<f64>,
     /// The clip is an amplifier's rail before the noise (its plateau is the rail ± the noise).
     pub(super) clip_rail: bool,
-    /// Creep superposed over the load history (every change's own log-time creep keeps going),
-    /// not restarting at every step.
-    pub(super) creep_superposed: bool,
-    /// The superposed creep is the sensor's conductance creeping, seen through the read-out: each
-    /// change drives it by its change of the read-out's u (linear in the conductance), and it shows
-    /// scaled by the read-out's slope at the current level (a divider's top compresses a creep its
-    /// bottom shows in full). Only with the recordings' read-out known.
-    pub(super) creep_through: bool,
-    /// The per-decade fraction at which the conductance's creep is taken through the read-out
-    /// exactly (its column is then the response's change at that size, per unit of it; iterated to
-    /// the fitted fraction); None: linearised at the first-order response.
-    pub(super) creep_through_at: Option<f64>,
+    /// The creep term's form.
+    pub(super) creep: CreepForm,
+}
+
+/// The creep term's form.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(super) enum CreepForm {
+    /// Log-time creep of the response restarting at every step (the previous step's relaxing away).
+    #[default]
+    Restarting,
+    /// Superposed over the load history: every change's own log-time creep keeps going.
+    Superposed,
+    /// Superposed, of the sensor's conductance, seen through the read-out: each change drives it
+    /// by its change of the read-out's u (linear in the conductance), and it shows scaled by the
+    /// read-out's slope at the current level (a divider's top compresses a creep its bottom shows
+    /// in full). Only with the recordings' read-out known. `at`: the per-decade fraction at which
+    /// it is taken exactly (its column is then the response's change at that size, per unit of
+    /// it; iterated to the fitted fraction); None: linearised at the first-order response.
+    Through { at: Option<f64> },
+}
+
+impl CreepForm {
+    /// Whether every change's own creep keeps going (superposed, through the read-out or not).
+    pub(super) fn superposed(self) -> bool {
+        self != CreepForm::Restarting
+    }
+    pub(super) fn through(self) -> bool {
+        matches!(self, CreepForm::Through { .. })
+    }
 }
 
 /// What drives the relaxation spectrum's kernels: the load as the spectrum applies it, a ramp of
@@ -174,9 +191,7 @@ impl Config {
             rest_tau: None,
             drift_tau: None,
             clip_rail: false,
-            creep_superposed: false,
-            creep_through: false,
-            creep_through_at: None,
+            creep: CreepForm::Restarting,
         }
     }
     pub(super) fn fixed(&self, i: usize, s: usize) -> Option<&FixedStep> {
@@ -347,8 +362,8 @@ impl Design {
         let steps = TrialSteps { i, tr, cfg, hat, l0: hat.level_of(self.loads[0]), top: hat.max_level() };
         for e in &cfg.effects {
             match e {
-                Effect::Creep if cfg.creep_superposed && cfg.creep_through => out[col] = cur.map(|s| steps.creep_through_column(s, t)).unwrap_or(0.0),
-                Effect::Creep if cfg.creep_superposed => out[col] = cur.map(|s| catalogue::creep::superposed_column(&steps, s, t)).unwrap_or(0.0),
+                Effect::Creep if cfg.creep.through() => out[col] = cur.map(|s| steps.creep_through_column(s, t)).unwrap_or(0.0),
+                Effect::Creep if cfg.creep.superposed() => out[col] = cur.map(|s| catalogue::creep::superposed_column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Hysteresis => out[col] = cur.map(|s| catalogue::hysteresis::column(&steps, s, t)).unwrap_or(0.0),
                 Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, landed, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
@@ -456,7 +471,11 @@ impl TrialSteps<'_> {
         let clock = |q: usize| (1.0 + (t - self.t0(q)).max(0.0) / catalogue::creep::TIME_S).log10();
         let creep_u = (0..=cur).map(|q| self.du(q).unwrap_or(0.0) * clock(q)).sum::<f64>();
         // exactly at the fraction given (a large creep spans much of the read-out's curve)
-        let exact = self.cfg.creep_through_at.filter(|c| c.abs() > 1e-12).and_then(|c| {
+        let at = match self.cfg.creep {
+            CreepForm::Through { at } => at,
+            _ => None,
+        };
+        let exact = at.filter(|c| c.abs() > 1e-12).and_then(|c| {
             let u0 = ro.divider_u(first)?;
             Some((ro.response_of_u(u0 + c * creep_u)? - ro.response_of_u(u0)?) / c)
         });
@@ -604,7 +623,7 @@ mod tests {
         let vcc = 3.3;
         let tr = Trial { readout: Some(crate::sensor::fashion::Readout::DividerHigh { vcc_v: vcc, r_m_ohm: 1000.0 }), ..trial(0.0) };
         let hat = Hat { loads: vec![0.0, 1.0, 2.0], level: vec![0.0, 1.0, 1.6], offset: vec![] };
-        let cfg = Config { creep_superposed: true, creep_through: true, ..Config::first_order() };
+        let cfg = Config { creep: CreepForm::Through { at: None }, ..Config::first_order() };
         let steps = TrialSteps { i: 0, tr: &tr, cfg: &cfg, hat: &hat, l0: 0.0, top: 1.6 };
         let u = |v: f64| vcc / (vcc - v);
         let rise = |t: f64, t0: f64, tau: f64| if t >= t0 { 1.0 - (-(t - t0) / tau).exp() } else { 0.0 };

@@ -12,11 +12,11 @@ pub(super) fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Ha
     let span = hat.max_level() - hat.level_of(d.loads[0]);
     let at = |i: usize| x.get(i).copied().unwrap_or(f64::NAN);
     match e {
-        Effect::Creep if c.creep_superposed && c.creep_through => {
+        Effect::Creep if c.creep.through() => {
             // a fraction of each change of the sensor's conductance per decade
             serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "superposed": true, "in_conductance": true})
         }
-        Effect::Creep if c.creep_superposed => {
+        Effect::Creep if c.creep.superposed() => {
             serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span, "superposed": true})
         }
         Effect::Creep => serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span}),

@@ -62,7 +62,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
                 explanation: match e {
                     Effect::SecondTimeConstant => c.drive.explanation().to_string(),
                     Effect::Saturation if c.clip_rail => catalogue::saturation::RAIL_EXPLANATION.to_string(),
-                    Effect::Creep if c.creep_through => catalogue::creep::THROUGH_EXPLANATION.to_string(),
+                    Effect::Creep if c.creep.through() => catalogue::creep::THROUGH_EXPLANATION.to_string(),
                     _ => e.explanation().to_string(),
                 },
                 windows,
@@ -299,8 +299,8 @@ fn rename(findings: &mut [Finding], named: Effect, b: &alternatives::Better, cur
     let Some(f) = findings.iter_mut().find(|f| f.effect == named.name()) else { return };
     f.effect = b.effect.name();
     f.explanation = match b.effect {
-        Effect::Creep if b.cfg.creep_superposed && b.cfg.creep_through => catalogue::creep::THROUGH_EXPLANATION.to_string(),
-        Effect::Creep if b.cfg.creep_superposed => catalogue::creep::SUPERPOSED_EXPLANATION.to_string(),
+        Effect::Creep if b.cfg.creep.through() => catalogue::creep::THROUGH_EXPLANATION.to_string(),
+        Effect::Creep if b.cfg.creep.superposed() => catalogue::creep::SUPERPOSED_EXPLANATION.to_string(),
         Effect::SecondTimeConstant => b.cfg.drive.explanation().to_string(),
         e => e.explanation().to_string(),
     };

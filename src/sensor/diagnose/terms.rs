@@ -140,10 +140,12 @@ pub(super) fn through_exactly(d: &Design, trials: &[Trial], hat: &Hat, (mut c, m
     for _ in 0..THROUGH_ITERATIONS {
         let k = term_col(d, &c, Effect::Creep);
         let Some(&at) = x.get(k).filter(|a| a.is_finite()) else { break };
-        if c.creep_through_at.is_some_and(|prev| (at - prev).abs() <= 0.01 * prev.abs()) {
-            break;
+        if let CreepForm::Through { at: Some(prev) } = c.creep {
+            if (at - prev).abs() <= 0.01 * prev.abs() {
+                break;
+            }
         }
-        let cand = Config { creep_through_at: Some(at), ..c.clone() };
+        let cand = Config { creep: CreepForm::Through { at: Some(at) }, ..c.clone() };
         match train_bic(d, trials, &cand, hat) {
             Some((b, xn)) if b < b0 => (c, b0, x) = (cand, b, xn),
             _ => break,
@@ -173,9 +175,7 @@ pub(super) fn without(cur: &Config, idx: usize) -> Config {
         c.drift_tau = None;
     }
     if e == Effect::Creep {
-        c.creep_superposed = false;
-        c.creep_through = false;
-        c.creep_through_at = None;
+        c.creep = CreepForm::Restarting;
     }
     c
 }
@@ -209,7 +209,7 @@ mod tests {
                 (&base.effects, base.clip, &base.tau_fixed, &base.restart, base.rest_tau, base.drift_tau),
                 "{e:?}"
             );
-            assert_eq!((back.creep_superposed, back.creep_through, back.clip_rail), (false, false, false), "{e:?}");
+            assert_eq!((back.creep, back.clip_rail), (CreepForm::Restarting, false), "{e:?}");
         }
     }
 }

@@ -42,8 +42,7 @@ fn best_in_place(d: &Design, trials: &[Trial], hat: &Hat, cur: &Config) -> Optio
         }
         let mut c = base;
         c.effects.push(Effect::Creep);
-        c.creep_superposed = true;
-        c.creep_through = true;
+        c.creep = CreepForm::Through { at: None };
         let Some((b, _)) = train_bic(d, trials, &c, hat) else { continue };
         let (c, _) = through_exactly(d, trials, hat, (c, b));
         let Some((s, x)) = score(d, trials, &c, hat) else { continue };
@@ -143,7 +142,7 @@ mod tests {
             let named: Vec<_> = findings.iter().map(|f| f.effect).collect();
             let mut hat = sel.hat.clone();
             replace_slow(&b.d, &b.trials, &mut hat, (&mut cur, &mut s, &mut x), &mut findings, &mut decisions, None, &b.report);
-            assert_eq!(cur.creep_through, want, "case {k}: {named:?} -> {:?}; {:?}", findings.iter().map(|f| f.effect).collect::<Vec<_>>(), decisions.last());
+            assert_eq!(cur.creep.through(), want, "case {k}: {named:?} -> {:?}; {:?}", findings.iter().map(|f| f.effect).collect::<Vec<_>>(), decisions.last());
             if want {
                 let f = findings.iter().find(|f| f.effect == "creep").unwrap();
                 let frac = f.term.params["per_decade_fraction"].as_f64().unwrap();
