@@ -166,6 +166,25 @@ pub(super) fn median_tau(trials: &[Trial]) -> f64 {
     crate::sensor::preprocess::median(&mut t)
 }
 
+/// The scale of a second relaxation's τ2 grid (`terms::TAU2_GRID` times it): the steps' median
+/// part-1 τ; but when that is under one sample interval (the steps land within a sample: their τ
+/// is a jump's nominal one and says nothing of what the samples can resolve after it), at least
+/// the median hold over [`TAU2_HOLD_SHARE`], so that the grid reaches an eighth of a hold. (On an
+/// FSR402-like 10 Hz step of 10 min the grid was 0.01–0.13 s, and a 5 % second relaxation of 30 s
+/// gained 1 % in its best place; the relaxation spectrum took its residual and was named creep.)
+pub(super) fn tau2_scale(trials: &[Trial]) -> f64 {
+    let tau = median_tau(trials);
+    let mut dt: Vec<f64> = trials.iter().flat_map(|tr| tr.t.windows(2).map(|w| w[1] - w[0])).collect();
+    let mut holds = step_spacings_s(trials);
+    if dt.is_empty() || holds.is_empty() || tau >= crate::sensor::preprocess::median(&mut dt) {
+        return tau;
+    }
+    tau.max(crate::sensor::preprocess::median(&mut holds) / TAU2_HOLD_SHARE)
+}
+
+/// See [`tau2_scale`].
+pub(super) const TAU2_HOLD_SHARE: f64 = 200.0;
+
 /// A step whose time constant and onset are set, not taken from its own part-1 fit.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct FixedStep {

@@ -191,7 +191,7 @@ fn backward(
 /// forms when it predicts clearly better, τ2 refined, and the terms' parameters as in the model.
 pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>, clip_steps: &ClipSteps, actuator: bool) -> Selected {
     let (d, trials, report) = (&b.d, b.trials.as_slice(), &b.report);
-    let med_tau = median_tau(&b.trials);
+    let med_tau = tau2_scale(&b.trials);
     let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, mut hat, mut findings, mut decisions, mut nuisances, exact: round0_exact } =
         select(&b.base_cfg, clean.clone(), xc.to_vec(), b.hat.clone(), &Ctx { d, trials, hat: &Hat::default(), clip, clip_steps, med_tau }, report);
     let mut spectrum_exact: Option<Exact> = None;
