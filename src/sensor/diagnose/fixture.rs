@@ -55,6 +55,6 @@ pub(super) fn built_with_options(recs: &[Recording], f: impl Fn(&mut Options)) -
 
 /// The context the selection's stages take, on a built baseline.
 pub(super) fn ctx<'a>(b: &'a Built, clip_steps: &'a ClipSteps, hat: &'a Hat) -> Ctx<'a> {
-    let med_tau = tau2_scale(&b.trials);
-    Ctx { d: &b.d, trials: &b.trials, hat, clip: clip_level(&b.trials), clip_steps, med_tau }
+    let tau2_scale = tau2_scale(&b.trials);
+    Ctx { d: &b.d, trials: &b.trials, hat, clip: clip_level(&b.trials), clip_steps, tau2_scale }
 }

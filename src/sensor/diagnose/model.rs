@@ -116,6 +116,13 @@ impl CreepForm {
     pub(super) fn through(self) -> bool {
         matches!(self, CreepForm::Through { .. })
     }
+    /// The size at which the conductance's creep is taken exactly, when it is.
+    pub(super) fn exact_at(self) -> Option<f64> {
+        match self {
+            CreepForm::Through { at } => at,
+            _ => None,
+        }
+    }
 }
 
 /// What drives the relaxation spectrum's kernels: the load as the spectrum applies it, a ramp of
@@ -490,11 +497,7 @@ impl TrialSteps<'_> {
         let clock = |q: usize| (1.0 + (t - self.t0(q)).max(0.0) / catalogue::creep::TIME_S).log10();
         let creep_u = (0..=cur).map(|q| self.du(q).unwrap_or(0.0) * clock(q)).sum::<f64>();
         // exactly at the fraction given (a large creep spans much of the read-out's curve)
-        let at = match self.cfg.creep {
-            CreepForm::Through { at } => at,
-            _ => None,
-        };
-        let exact = at.filter(|c| c.abs() > 1e-12).and_then(|c| {
+        let exact = self.cfg.creep.exact_at().filter(|c| c.abs() > 1e-12).and_then(|c| {
             let u0 = ro.divider_u(first)?;
             Some((ro.response_of_u(u0 + c * creep_u)? - ro.response_of_u(u0)?) / c)
         });

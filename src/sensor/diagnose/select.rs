@@ -109,7 +109,7 @@ type Pick = (Effect, Config, Score, Vec<f64>);
 /// each decision recorded; the passing candidate with the lowest BIC, and the exact form of
 /// relaxation (creep, one second relaxation) that predicts held-out data best this round.
 fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, ctx: &Ctx, decisions: &mut Vec<Decision>) -> (Option<Pick>, Option<Exact>) {
-    let (d, trials, clip, clip_steps, med_tau) = (ctx.d, ctx.trials, ctx.clip, ctx.clip_steps, ctx.med_tau);
+    let (d, trials, clip, clip_steps, tau2_scale) = (ctx.d, ctx.trials, ctx.clip, ctx.clip_steps, ctx.tau2_scale);
     let mut best: Option<Pick> = None;
     // the exact form (creep, one second relaxation) that predicts held-out data best this round
     let mut exact: Option<Exact> = None;
@@ -118,7 +118,7 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         if cur.effects.contains(&e) || (e == Effect::Saturation && clip.is_none()) || e == Effect::Relaxation {
             continue;
         }
-        let Some(c) = candidate(e, cur, &Ctx { d, trials, hat, clip, clip_steps, med_tau }) else { continue };
+        let Some(c) = candidate(e, cur, &Ctx { d, trials, hat, clip, clip_steps, tau2_scale }) else { continue };
         let Some((s, x)) = score(d, trials, &c, hat) else { continue };
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
         let dbic = s.bic - cur_score.bic;
@@ -191,15 +191,15 @@ fn backward(
 /// forms when it predicts clearly better, τ2 refined, and the terms' parameters as in the model.
 pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>, clip_steps: &ClipSteps, actuator: bool) -> Selected {
     let (d, trials, report) = (&b.d, b.trials.as_slice(), &b.report);
-    let med_tau = tau2_scale(&b.trials);
+    let tau2_scale = tau2_scale(&b.trials);
     let Selected { cfg: mut cur, score: mut cur_score, x: mut cur_x, mut hat, mut findings, mut decisions, mut nuisances, exact: round0_exact } =
-        select(&b.base_cfg, clean.clone(), xc.to_vec(), b.hat.clone(), &Ctx { d, trials, hat: &Hat::default(), clip, clip_steps, med_tau }, report);
+        select(&b.base_cfg, clean.clone(), xc.to_vec(), b.hat.clone(), &Ctx { d, trials, hat: &Hat::default(), clip, clip_steps, tau2_scale }, report);
     let mut spectrum_exact: Option<Exact> = None;
     // honest naming: the other effects that explain each finding's residual about as well; a name
     // goes to the best explanation (an effect in a form the forward step does not offer may
     // predict clearly better in the named one's place: it takes the name)
     // (and one effect that stands in for two with the same evidence takes both their places)
-    let actx = Ctx { d, trials, hat: &hat, clip, clip_steps, med_tau };
+    let actx = Ctx { d, trials, hat: &hat, clip, clip_steps, tau2_scale };
     let passes = 2 * findings.len() + 1;
     let mut settled_once = false;
     for pass in 0..=passes {
@@ -248,7 +248,7 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
     // the conductance's creep through the read-out in place of the slow terms it predicts clearly
     // better than, once the catalogue's names stand; the alternatives then for the model with it
     if replace_slow(d, trials, &mut hat, (&mut cur, &mut cur_score, &mut cur_x), &mut findings, &mut decisions, clip, report) {
-        let actx = Ctx { d, trials, hat: &hat, clip, clip_steps, med_tau };
+        let actx = Ctx { d, trials, hat: &hat, clip, clip_steps, tau2_scale };
         for (e, alts, _) in alternatives::alternatives(&cur, &cur_score, &actx) {
             if let Some(f) = findings.iter_mut().find(|f| f.effect == e.name()) {
                 f.alternatives = alts;

@@ -38,14 +38,15 @@ pub(super) struct Ctx<'a> {
     pub(super) hat: &'a Hat,
     pub(super) clip: Option<f64>,
     pub(super) clip_steps: &'a ClipSteps,
-    pub(super) med_tau: f64,
+    /// What a second relaxation's τ2 grid is relative to (`model::tau2_scale`).
+    pub(super) tau2_scale: f64,
 }
 
 /// The model `cur` with effect `e` added, its shape parameters chosen on the training fit (not on
 /// held-out data): the second relaxation's τ2 and drive on their grid, a clip at the recording's
 /// level, a rest relaxation's τ; a second relaxation already in the model has its τ2 refitted.
 pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
-    let (d, trials, hat, clip, clip_steps, med_tau) = (ctx.d, ctx.trials, ctx.hat, ctx.clip, ctx.clip_steps, ctx.med_tau);
+    let (d, trials, hat, clip, clip_steps, tau2_scale) = (ctx.d, ctx.trials, ctx.hat, ctx.clip, ctx.clip_steps, ctx.tau2_scale);
     let cands: Vec<Config> = match e {
         Effect::RestRelaxation => nuisance::rest_candidates(d, trials, cur),
         Effect::SecondTimeConstant => [Drive::Change, Drive::Size]
@@ -54,7 +55,7 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
             .map(|(drive, m)| {
                 let mut c = cur.clone();
                 c.effects.push(e);
-                c.tau2 = m * med_tau;
+                c.tau2 = m * tau2_scale;
                 c.drive = drive;
                 c
             })
@@ -114,7 +115,7 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
             for f in [1.0 / TAU2_STEP, TAU2_STEP] {
                 let mut cand = c.clone();
                 cand.tau2 *= f;
-                if cand.tau2 < TAU2_GRID[0] * med_tau * 0.99 || cand.tau2 > TAU2_GRID[TAU2_GRID.len() - 1] * med_tau * 1.01 {
+                if cand.tau2 < TAU2_GRID[0] * tau2_scale * 0.99 || cand.tau2 > TAU2_GRID[TAU2_GRID.len() - 1] * tau2_scale * 1.01 {
                     continue;
                 }
                 if let Some((b, _)) = train_bic(d, trials, &cand, hat) {
@@ -140,10 +141,8 @@ pub(super) fn through_exactly(d: &Design, trials: &[Trial], hat: &Hat, (mut c, m
     for _ in 0..THROUGH_ITERATIONS {
         let k = term_col(d, &c, Effect::Creep);
         let Some(&at) = x.get(k).filter(|a| a.is_finite()) else { break };
-        if let CreepForm::Through { at: Some(prev) } = c.creep {
-            if (at - prev).abs() <= 0.01 * prev.abs() {
-                break;
-            }
+        if c.creep.exact_at().is_some_and(|prev| (at - prev).abs() <= 0.01 * prev.abs()) {
+            break;
         }
         let cand = Config { creep: CreepForm::Through { at: Some(at) }, ..c.clone() };
         match train_bic(d, trials, &cand, hat) {
@@ -200,7 +199,7 @@ mod tests {
                 assert!(c.clip.is_some() && c.tau_fixed.len() == 3 && c.restart.len() == 3, "{c:?}");
             }
             if e == Effect::SecondTimeConstant {
-                let m = c.tau2 / ctx.med_tau;
+                let m = c.tau2 / ctx.tau2_scale;
                 assert!(TAU2_GRID.iter().any(|g| (g - m).abs() < 1e-9 * g), "τ2 {} off the grid", c.tau2);
             }
             let back = without(&c, idx);
