@@ -302,6 +302,29 @@ fn a_preload_mismatch_is_named_as_such_first() {
     assert!(d.findings.iter().all(|f| f.effect != "preload_mismatch"), "{:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>());
 }
 
+/// The FSR402-like protocol (one 1 kg step held 10 min) and its sensor.
+fn fsr402() -> (ProtocolParams, SensorParams) {
+    (ProtocolParams::from_source(&load("params/protocol-1kg-hold.toml")).unwrap(), SensorParams::from_source(&load("params/sensor-fsr402.toml")).unwrap())
+}
+
+/// The FSR402-like sensor as a lab has it: a preload of 8 g, the loaded hold at 89 % of the
+/// divider's span, σ 18 mV with 70 % of it AR(1) at ρ 0.9, and no creep.
+fn fsr402_preloaded() -> (ProtocolParams, SensorParams) {
+    let (proto, mut s) = fsr402();
+    (s.preload_g, s.g_ref_s, s.noise_v) = (8.0, 8.0e-5, 0.018);
+    (s.nuisance.noise_ar_rho, s.nuisance.noise_ar_share) = (0.9, 0.7);
+    s.effects.creep_per_decade = 0.0;
+    (proto, s)
+}
+
+/// One simulated recording of `s` under `proto` at `seed`, diagnosed; and the names it found.
+fn diagnose_one(s: &SensorParams, proto: &ProtocolParams, seed: u64) -> (tipforge::sensor::diagnose::Diagnosis, Vec<&'static str>) {
+    let (rec, _) = simulate(s, proto, 0.0, None, seed);
+    let d = diagnose(std::slice::from_ref(&rec), &Default::default()).unwrap();
+    let names = d.findings.iter().map(|f| f.effect).collect();
+    (d, names)
+}
+
 /// Issue 15, item 7: an Interlink FSR402-like case (params/sensor-fsr402.toml: 10-bit Arduino,
 /// 5 V divider, 10 Hz) under one 1 kg weight placed by hand, held 10 min, lifted, 5 min of
 /// recovery. The load lands within a sample and the rubber creeps (about 9 % of the resistance over
@@ -310,8 +333,7 @@ fn a_preload_mismatch_is_named_as_such_first() {
 /// at least 30 % better held out; without the creep it finds nothing. Seeds not looked at before.
 #[test]
 fn fsr402_like_single_step_names_creep_and_nothing_without_it() {
-    let proto = ProtocolParams::from_source(&load("params/protocol-1kg-hold.toml")).unwrap();
-    let with = SensorParams::from_source(&load("params/sensor-fsr402.toml")).unwrap();
+    let (proto, with) = fsr402();
     assert!(with.effects.creep_per_decade > 0.0);
     let mut without = with.clone();
     without.effects.creep_per_decade = 0.0;
@@ -339,15 +361,12 @@ fn fsr402_like_single_step_names_creep_and_nothing_without_it() {
 /// better held out. Seeds not looked at before.
 #[test]
 fn fsr402_like_conductance_creep_is_named_through_the_divider() {
-    let proto = ProtocolParams::from_source(&load("params/protocol-1kg-hold.toml")).unwrap();
-    let mut s = SensorParams::from_source(&load("params/sensor-fsr402.toml")).unwrap();
+    let (proto, mut s) = fsr402();
     s.effects.creep_per_decade = 0.043;
     s.effects.creep_superposed = true;
     s.effects.creep_in_conductance = true;
     for seed in [90_011u64, 90_012, 90_013] {
-        let (rec, _) = simulate(&s, &proto, 0.0, None, seed);
-        let d = diagnose(std::slice::from_ref(&rec), &Default::default()).unwrap();
-        let names: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
+        let (d, names) = diagnose_one(&s, &proto, seed);
         assert_eq!(names, vec!["creep"], "seed {seed}: {:?}", d.decisions);
         let p = &d.findings[0].term.params;
         assert_eq!(p["in_conductance"].as_bool(), Some(true), "seed {seed}: {p}");
@@ -368,23 +387,16 @@ fn fsr402_like_conductance_creep_is_named_through_the_divider() {
 /// conditions names nothing. Seeds not looked at before.
 #[test]
 fn a_preloaded_fsr402_like_creep_is_found_from_its_recovery_at_zero_load() {
-    let proto = ProtocolParams::from_source(&load("params/protocol-1kg-hold.toml")).unwrap();
-    let mut s = SensorParams::from_source(&load("params/sensor-fsr402.toml")).unwrap();
-    (s.preload_g, s.g_ref_s, s.noise_v) = (8.0, 8.0e-5, 0.018);
-    (s.nuisance.noise_ar_rho, s.nuisance.noise_ar_share) = (0.9, 0.7);
-    s.effects.creep_per_decade = 0.0;
+    let (proto, mut s) = fsr402_preloaded();
     for seed in [90_021u64, 90_022] {
-        let (rec, _) = simulate(&s, &proto, 0.0, None, seed);
-        let d = diagnose(std::slice::from_ref(&rec), &Default::default()).unwrap();
-        assert!(d.findings.is_empty(), "null, seed {seed}: {:?}", d.decisions);
+        let (d, names) = diagnose_one(&s, &proto, seed);
+        assert!(names.is_empty(), "null, seed {seed}: {:?}", d.decisions);
     }
     s.effects.creep_per_decade = 0.03;
     s.effects.creep_superposed = true;
     s.effects.creep_in_conductance = true;
     for seed in [90_023u64, 90_024, 90_025] {
-        let (rec, _) = simulate(&s, &proto, 0.0, None, seed);
-        let d = diagnose(std::slice::from_ref(&rec), &Default::default()).unwrap();
-        let names: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
+        let (d, names) = diagnose_one(&s, &proto, seed);
         assert_eq!(names, vec!["creep"], "seed {seed}: {:?}", d.decisions);
         assert!(d.final_.heldout_rmse <= 0.5 * d.baseline.heldout_rmse, "seed {seed}: {} -> {}", d.baseline.heldout_rmse, d.final_.heldout_rmse);
         // the preload's response (the trial's offset) is part of the level the divider converts
@@ -401,16 +413,10 @@ fn a_preloaded_fsr402_like_creep_is_found_from_its_recovery_at_zero_load() {
 /// 20 %. Seeds not looked at before.
 #[test]
 fn a_second_relaxation_after_a_jump_is_sought_on_the_holds_scale() {
-    let proto = ProtocolParams::from_source(&load("params/protocol-1kg-hold.toml")).unwrap();
-    let mut s = SensorParams::from_source(&load("params/sensor-fsr402.toml")).unwrap();
-    (s.preload_g, s.g_ref_s, s.noise_v) = (8.0, 8.0e-5, 0.018);
-    (s.nuisance.noise_ar_rho, s.nuisance.noise_ar_share) = (0.9, 0.7);
-    s.effects.creep_per_decade = 0.0;
+    let (proto, mut s) = fsr402_preloaded();
     (s.effects.second_fraction, s.effects.second_tau_s) = (0.05, 30.0);
     for seed in [90_031u64, 90_032] {
-        let (rec, _) = simulate(&s, &proto, 0.0, None, seed);
-        let d = diagnose(std::slice::from_ref(&rec), &Default::default()).unwrap();
-        let names: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
+        let (d, names) = diagnose_one(&s, &proto, seed);
         assert_eq!(names, vec!["second_time_constant"], "seed {seed}: {:?}", d.decisions);
         let p = &d.findings[0].term.params;
         let (tau2, share) = (p["tau2_s"].as_f64().unwrap(), p["fraction"].as_f64().unwrap());
