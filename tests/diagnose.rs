@@ -317,6 +317,14 @@ fn fsr402_preloaded() -> (ProtocolParams, SensorParams) {
     (proto, s)
 }
 
+/// A creep of the conductance of `per_decade` of each change per decade, superposed over the load
+/// history (seen through the divider).
+fn conductance_creep(s: &mut SensorParams, per_decade: f64) {
+    s.effects.creep_per_decade = per_decade;
+    s.effects.creep_superposed = true;
+    s.effects.creep_in_conductance = true;
+}
+
 /// One simulated recording of `s` under `proto` at `seed`, diagnosed; and the names it found.
 fn diagnose_one(s: &SensorParams, proto: &ProtocolParams, seed: u64) -> (tipforge::sensor::diagnose::Diagnosis, Vec<&'static str>) {
     let (rec, _) = simulate(s, proto, 0.0, None, seed);
@@ -362,9 +370,7 @@ fn fsr402_like_single_step_names_creep_and_nothing_without_it() {
 #[test]
 fn fsr402_like_conductance_creep_is_named_through_the_divider() {
     let (proto, mut s) = fsr402();
-    s.effects.creep_per_decade = 0.043;
-    s.effects.creep_superposed = true;
-    s.effects.creep_in_conductance = true;
+    conductance_creep(&mut s, 0.043);
     for seed in [90_011u64, 90_012, 90_013] {
         let (d, names) = diagnose_one(&s, &proto, seed);
         assert_eq!(names, vec!["creep"], "seed {seed}: {:?}", d.decisions);
@@ -392,9 +398,7 @@ fn a_preloaded_fsr402_like_creep_is_found_from_its_recovery_at_zero_load() {
         let (d, names) = diagnose_one(&s, &proto, seed);
         assert!(names.is_empty(), "null, seed {seed}: {:?}", d.decisions);
     }
-    s.effects.creep_per_decade = 0.03;
-    s.effects.creep_superposed = true;
-    s.effects.creep_in_conductance = true;
+    conductance_creep(&mut s, 0.03);
     for seed in [90_023u64, 90_024, 90_025] {
         let (d, names) = diagnose_one(&s, &proto, seed);
         assert_eq!(names, vec!["creep"], "seed {seed}: {:?}", d.decisions);
