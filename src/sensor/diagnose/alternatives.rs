@@ -138,11 +138,7 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
 /// significant (a true drift and a hysteresis 1.6 % apart at z 3.6 on a hand-touch tuning case) —
 /// and by more than the one kept so far.
 fn keep_if_clearly_better(better: &mut Option<Better>, e: Effect, (c, s, x): (&Config, &Score, &[f64]), cur_score: &Score, z_sep: f64) {
-    // the conductance's creep through the read-out takes a name only by the margin it needs to
-    // take the slow terms' place (`through::replace_slow`): with 3 % it took a true second time
-    // constant's name under an actuator's ramps (family A tuning seed 28 680)
-    let least = if c.creep.through() { SPECTRUM_MARGIN } else { MIN_ROBUST_GAIN };
-    if z_sep <= -MIN_Z && s.gain_over(cur_score) >= least && better.as_ref().is_none_or(|b| -z_sep > b.z) {
+    if z_sep <= -MIN_Z && s.gain_over(cur_score) >= least_gain(c) && better.as_ref().is_none_or(|b| -z_sep > b.z) {
         *better = Some(Better { effect: e, cfg: c.clone(), score: s.clone(), x: x.to_vec(), z: -z_sep });
     }
 }

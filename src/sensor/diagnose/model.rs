@@ -181,7 +181,7 @@ pub(super) fn median_tau(trials: &[Trial]) -> f64 {
 /// gained 1 % in its best place; the relaxation spectrum took its residual and was named creep.)
 pub(super) fn tau2_scale(trials: &[Trial]) -> f64 {
     let tau = median_tau(trials);
-    let mut dt: Vec<f64> = trials.iter().flat_map(|tr| tr.t.windows(2).map(|w| w[1] - w[0])).collect();
+    let mut dt: Vec<f64> = trials.iter().map(sample_interval).filter(|x| x.is_finite()).collect();
     let mut holds = step_spacings_s(trials);
     if dt.is_empty() || holds.is_empty() || tau >= crate::sensor::preprocess::median(&mut dt) {
         return tau;
