@@ -184,16 +184,17 @@ fn report_html(d: &Diagnosis, advice_html: &str, imgs: &[String]) -> String {
     }
     html += "</ul>\n";
     if d.findings.iter().any(|f| !f.alternatives.is_empty()) {
-        html += "<h2>Names the recording cannot separate</h2>\n<p>Each finding's term was dropped and every other catalogue effect put in its place. An alternative explains the same residual held out, and the named model does not predict the held-out units better than it by a paired z of 2.</p>\n<table><tr><th>finding</th><th>its held-out RMSE</th><th>alternative</th><th>held-out RMSE in its place</th><th>paired z, named over it</th></tr>\n";
+        html += "<h2>Names the recording cannot separate</h2>\n<p>Each finding's term was dropped and every other catalogue effect put in its place. An alternative explains the same residual held out, and the named model does not predict the held-out units better than it by a paired z of 2. One that predicts them better (a negative z) does so by a gain too small to take the name.</p>\n<table><tr><th>finding</th><th>its held-out RMSE</th><th>alternative</th><th>held-out RMSE in its place</th><th>paired z, named over it</th><th>its gain over the named</th></tr>\n";
         for f in &d.findings {
             for a in &f.alternatives {
                 html += &format!(
-                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td></tr>\n",
+                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{:.1} %</td></tr>\n",
                     f.effect,
                     sig4(f.heldout_rmse_after),
                     a.effect,
                     sig4(a.heldout_rmse),
-                    a.z_named_over_this
+                    a.z_named_over_this,
+                    100.0 * a.gain_over_named
                 );
             }
         }

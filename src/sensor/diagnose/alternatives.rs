@@ -29,6 +29,9 @@ pub struct Alternative {
     pub heldout_rmse: f64,
     /// Paired z by which the named model predicts the held-out units better (negative: worse).
     pub z_named_over_this: f64,
+    /// Its held-out RMSE gain over the named model (positive: it predicts better; then by too
+    /// little a gain to take the name).
+    pub gain_over_named: f64,
     /// Its term's parameters, fitted in the named term's place (as a finding's `term.params`): the
     /// advice simulates the recording's sensor with it.
     pub params: serde_json::Value,
@@ -94,6 +97,7 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
                     effect: e.name(),
                     heldout_rmse: s.heldout_rmse,
                     z_named_over_this: z_sep,
+                    gain_over_named: s.gain_over(cur_score),
                     params: term_params(ctx.d, &c, &x, e, ctx.hat),
                     unit_sd_per_sample: unit_sd_per_sample(cur_score, &s),
                     first_order: first_order_part(ctx.d, &c, &x, ctx.trials),
@@ -120,6 +124,7 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
                         effect: Effect::RestRelaxation.name(),
                         heldout_rmse: s.heldout_rmse,
                         z_named_over_this: z_sep,
+                        gain_over_named: s.gain_over(cur_score),
                         params: term_params(ctx.d, &c, &x, Effect::RestRelaxation, ctx.hat),
                         unit_sd_per_sample: unit_sd_per_sample(cur_score, &s),
                         first_order: first_order_part(ctx.d, &c, &x, ctx.trials),
@@ -247,17 +252,30 @@ pub(super) fn apply(f: &mut Finding) {
     }
 }
 
-/// The sentence a reader gets for a finding with alternatives.
+/// The sentence a reader gets for a finding with alternatives. An alternative that predicts the
+/// held-out units better by a paired z of Z_SEPARATE, by a gain too small to take the name, is said
+/// to: the recording leans to it without separating the two.
 pub fn sentence(effect: &str, alts: &[Alternative]) -> Option<String> {
     if alts.is_empty() {
         return None;
     }
-    let names: Vec<&str> = std::iter::once(effect).chain(alts.iter().map(|a| a.effect)).map(|n| n.trim_end_matches("_term")).collect();
+    fn short(n: &str) -> &str {
+        n.trim_end_matches("_term")
+    }
+    let names: Vec<&str> = std::iter::once(effect).chain(alts.iter().map(|a| a.effect)).map(short).collect();
     let list = match names.len() {
         2 => format!("{} or {}", names[0], names[1]),
         _ => format!("{} or {}", names[..names.len() - 1].join(", "), names[names.len() - 1]),
     };
-    Some(format!("{list}: this recording cannot tell them apart (each explains the residual held out, and none predicts it better by a paired z of {Z_SEPARATE})"))
+    let leaning: Vec<String> = alts
+        .iter()
+        .filter(|a| a.z_named_over_this <= -Z_SEPARATE)
+        .map(|a| format!("{} predicts it slightly better, by {:.1} % at a paired z of {:.1}", short(a.effect), 100.0 * a.gain_over_named, -a.z_named_over_this))
+        .collect();
+    if leaning.is_empty() {
+        return Some(format!("{list}: this recording cannot tell them apart (each explains the residual held out, and none predicts it better by a paired z of {Z_SEPARATE})"));
+    }
+    Some(format!("{list}: this recording does not tell them apart clearly (each explains the residual held out; {}, too small a gain to take the name)", leaning.join("; ")))
 }
 
 #[cfg(test)]
@@ -293,10 +311,26 @@ mod tests {
     #[test]
     fn the_sentence_names_every_candidate_and_none_without_alternatives() {
         assert_eq!(sentence("creep", &[]), None);
-        let a = |e| Alternative { effect: e, heldout_rmse: 1.0, z_named_over_this: 0.5, params: serde_json::json!({}), unit_sd_per_sample: 0.0, first_order: (vec![], vec![]) };
+        let at = |e, z: f64, gain| Alternative {
+            effect: e,
+            heldout_rmse: 1.0,
+            z_named_over_this: z,
+            gain_over_named: gain,
+            params: serde_json::json!({}),
+            unit_sd_per_sample: 0.0,
+            first_order: (vec![], vec![]),
+        };
+        let a = |e| at(e, 0.5, -0.004);
         let s = sentence("creep", &[a("second_time_constant")]).unwrap();
         assert!(s.starts_with("creep or second_time_constant: this recording cannot tell them apart"), "{s}");
         let s = sentence("creep", &[a("hysteresis"), a("baseline_drift")]).unwrap();
         assert!(s.starts_with("creep, hysteresis or baseline_drift:"), "{s}");
+        assert!(s.contains("none predicts it better by a paired z of 2"), "{s}");
+        // an alternative the held-out units favour, by a gain too small to take the name, is not
+        // said to be indistinguishable: the sentence says which way the recording leans and by how much
+        let s = sentence("baseline_drift", &[at("creep", -3.56, 0.0097), a("hysteresis")]).unwrap();
+        assert!(s.starts_with("baseline_drift, creep or hysteresis: this recording does not tell them apart clearly"), "{s}");
+        assert!(s.contains("creep predicts it slightly better, by 1.0 % at a paired z of 3.6") && !s.contains("none predicts"), "{s}");
+        assert!(!s.contains("hysteresis predicts"), "{s}");
     }
 }
