@@ -700,3 +700,32 @@ fn small_handling_spikes_are_named() {
         .count();
     assert!(named >= 7, "0.3σ handling spikes named on {named} of 8");
 }
+
+/// Issue 15, item 3: hysteresis whose peak memory fades (family A's `memory_s`: the remembered
+/// peak force fades toward the present force). A 1 % hysteresis fading over 60 s on 20 s holds is
+/// named hysteresis (as the permanent form names it), and the final model carries a fading memory
+/// of 60–120 s: its error to the noise-free truth stays under 0.16 mV, where the permanent memory
+/// left 0.215 mV (0.107–0.110 mV with the fading one; other seeds). A permanent memory keeps none.
+/// Fresh seeds.
+#[test]
+fn a_fading_hysteresis_is_modelled_with_its_memory() {
+    for (memory_s, seed) in [(60.0, 95_001u64), (60.0, 95_011), (0.0, 95_021)] {
+        let f = |s: &mut SensorParams| {
+            s.effects.hysteresis = 0.01;
+            s.effects.hysteresis_memory_s = memory_s;
+        };
+        let d = diagnose(&case(seed, f), &Default::default()).unwrap();
+        let names: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
+        let h = d.findings.iter().find(|f| f.effect == "hysteresis").unwrap_or_else(|| panic!("seed {seed}: {names:?}"));
+        let fitted = h.term.params.get("memory_s").and_then(|m| m.as_f64());
+        let (_, improved) = truth_errors(&d, seed, f);
+        if memory_s > 0.0 {
+            let m = fitted.unwrap_or_else(|| panic!("seed {seed}: no memory in {}", h.term.params));
+            assert!((60.0..=120.0).contains(&m), "seed {seed}: memory {m} s");
+            assert!(improved < 0.16e-3, "seed {seed}: improved error to the truth {improved} V");
+        } else {
+            assert_eq!(fitted, None, "seed {seed}: a permanent memory fitted as fading: {}", h.term.params);
+            assert!(improved < 0.16e-3, "seed {seed}: improved error to the truth {improved} V");
+        }
+    }
+}

@@ -32,6 +32,9 @@ pub struct Effects {
     pub creep_in_conductance: bool,
     /// Fraction of (V_eq(F_max) − V_eq(F)) kept on the unloading branch.
     pub hysteresis: f64,
+    /// The peak's memory time (s): with it (> 0) the remembered peak force fades toward the present
+    /// force, dP/dt = −(P − F)/T while F < P (the gap closes over minutes); 0: kept for good.
+    pub hysteresis_memory_s: f64,
     /// Fraction of each step in a second, slower relaxation, and its time constant.
     pub second_fraction: f64,
     pub second_tau_s: f64,
@@ -130,7 +133,7 @@ static NOISE: Schema = Schema { fields: || &["sigma_v"], tables: &[] };
 static RIG: Schema = Schema { fields: || &["preload_g"], tables: &[] };
 static COVER: Schema = Schema { fields: || &["dome_stiffness_n_per_mm", "contact_diameter_mm", "relax_fraction", "tau_s"], tables: &[] };
 static CREEP: Schema = Schema { fields: || &["per_decade", "time_s", "superposed", "in_conductance"], tables: &[] };
-static HYST: Schema = Schema { fields: || &["fraction"], tables: &[] };
+static HYST: Schema = Schema { fields: || &["fraction", "memory_s"], tables: &[] };
 static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s", "warmup_tau_s"], tables: &[] };
 static SAT: Schema = Schema { fields: || &["level_v", "before_noise"], tables: &[] };
@@ -244,6 +247,7 @@ impl SensorParams {
             creep_per_decade: num(&mut c, &e("creep"), "effects.creep", "per_decade", 0.0, 0.0, 10.0).unwrap_or(0.0),
             creep_time_s: num(&mut c, &e("creep"), "effects.creep", "time_s", 1.0, 1e-3, 1e5).unwrap_or(1.0),
             hysteresis: num(&mut c, &e("hysteresis"), "effects.hysteresis", "fraction", 0.0, 0.0, 1.0).unwrap_or(0.0),
+            hysteresis_memory_s: num(&mut c, &e("hysteresis"), "effects.hysteresis", "memory_s", 0.0, 0.0, 1e7).unwrap_or(0.0),
             second_fraction: num(&mut c, &e("second_time_constant"), "effects.second_time_constant", "fraction", 0.0, 0.0, 1.0).unwrap_or(0.0),
             second_tau_s: num(&mut c, &e("second_time_constant"), "effects.second_time_constant", "tau_s", 8.0, 1e-3, 1e5).unwrap_or(8.0),
             drift_v_per_s: num(&mut c, &e("baseline_drift"), "effects.baseline_drift", "rate_v_per_s", 0.0, -10.0, 10.0).unwrap_or(0.0),

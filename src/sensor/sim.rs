@@ -205,6 +205,10 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
             ev_i += 1;
         }
         let f = force_of(load_now(cur_load, touches.get(ev_i), events.get(ev_i), tk));
+        // a fading memory: the remembered peak follows the force up at once and fades toward it
+        if e.hysteresis_memory_s > 0.0 {
+            f_max = if k == 0 || f >= f_max { f } else { f + (f_max - f) * (-dt / e.hysteresis_memory_s).exp() };
+        }
         let mut target = p.v_eq(f);
         if e.hysteresis > 0.0 && f < f_max {
             target += e.hysteresis * (p.v_eq(f_max) - target);
@@ -445,6 +449,43 @@ pub(crate) mod tests {
         assert!(dv > 0.0 && dg > 0.0, "{dv} {dg}");
         let want = dv / (1.0 + x);
         assert!((dg / want - 1.0).abs() < 0.1, "conductance creep {dg} V, expected ≈ {want} V (response creep {dv} V, Rm·G {x})");
+    }
+
+    /// A hysteresis whose memory fades: late in the last removal's hold (zero load), the unloading
+    /// branch's offset is the fraction of v_eq(P) − v_eq(F), with the remembered peak P faded
+    /// toward each hold's force in turn, dP/dt = −(P − F)/T (computed here from the steps); it
+    /// falls through the hold, and without fading it holds.
+    #[test]
+    fn a_fading_peak_memory_closes_the_unloading_gap() {
+        let (mut s, p) = defaults();
+        s.noise_v = 0.0;
+        let (_, plain) = simulate(&s, &p, 20.0, None, 5);
+        s.effects.hysteresis = 0.02;
+        let (_, kept) = simulate(&s, &p, 20.0, None, 5);
+        let memory_s = 60.0;
+        s.effects.hysteresis_memory_s = memory_s;
+        let (_, fading) = simulate(&s, &p, 20.0, None, 5);
+        let at = |t: f64| (t * s.circuit.sample_rate_hz).round() as usize;
+        let gap = |tr: &Truth, t: f64| tr.clean_v[at(t)] - plain.clean_v[at(t)];
+        let last = fading.steps.last().unwrap();
+        let (early, late) = (last.t_land_s + 3.0, last.t_land_s + p.baseline_s - 0.5);
+        assert!(gap(&kept, early) > 1e-3 && (gap(&kept, late) / gap(&kept, early) - 1.0).abs() < 0.01, "{} {}", gap(&kept, early), gap(&kept, late));
+        // the peak remembered at `late`, faded hold by hold from the top
+        let unl: Vec<&TruthStep> = fading.steps.iter().filter(|x| x.phase == "unloading").collect();
+        let mut peak = fading.steps.iter().map(|x| x.force_after_n).fold(0.0, f64::max);
+        for (k, st) in unl.iter().enumerate() {
+            let end = unl.get(k + 1).map(|n| n.t_land_s).unwrap_or(late);
+            peak = st.force_after_n + (peak - st.force_after_n) * (-(end - st.t_land_s) / memory_s).exp();
+        }
+        let want = 0.02 * (s.v_eq(peak) - s.v_eq(last.force_after_n));
+        assert!((gap(&fading, late) / want - 1.0).abs() < 0.02, "{} vs {want}", gap(&fading, late));
+        assert!(
+            gap(&fading, late) < 0.97 * gap(&fading, early) && gap(&fading, late) < 0.8 * gap(&kept, late),
+            "{} {} {}",
+            gap(&fading, early),
+            gap(&fading, late),
+            gap(&kept, late)
+        );
     }
 
     #[test]

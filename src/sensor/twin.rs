@@ -116,6 +116,11 @@ fn effects(t: &mut String, d: &Diagnosis) {
             "hysteresis" => {
                 if let Some(v) = num(p, "fraction") {
                     let _ = writeln!(t, "[effects.hysteresis]\nfraction = {}", fmt(v));
+                    // a fading memory: the diagnosis fades the levels' gap, the simulator the
+                    // force's (the same where the levels are near linear in the force)
+                    if let Some(m) = num(p, "memory_s") {
+                        let _ = writeln!(t, "memory_s = {}", fmt(m));
+                    }
                 }
             }
             "second_time_constant" => match (num(p, "fraction"), num(p, "tau2_s")) {

@@ -18,6 +18,34 @@ pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
     h(cur) + (prev - h(cur)) * super::decay((t - s.t0(cur)) / s.tau(cur))
 }
 
+/// The fading memories (s) a hysteresis candidate is tried with, beside the permanent one: a log
+/// grid over the minutes a contact's memory of its peak can last.
+pub const MEMORY_S: [f64; 7] = [15.0, 30.0, 60.0, 120.0, 240.0, 480.0, 960.0];
+
+/// The term's column when the peak's memory fades with the time `memory_s`: the remembered level
+/// follows the response up at once and, below it, fades toward the present level,
+/// dM/dt = −(M − L)/T; the column is the gap M − L, each step's reached with its own time constant
+/// from the gap before it. Levels are taken along the direction the first step moves them, so a
+/// read-out whose level falls with the load remembers its lowest level. Without fading
+/// (T → ∞) and on a staircase up and down, it is [`column`].
+pub fn fading_column(s: &impl Steps, cur: usize, t: f64, memory_s: f64) -> f64 {
+    let dir = if (s.dv(0) >= 0.0) != s.unloading(0) { 1.0 } else { -1.0 };
+    let y = |q: usize| dir * s.level(q);
+    // the gap at each step's onset, the memory carried from the step before
+    let (mut gap, mut prev_gap, mut m) = (0.0, 0.0, dir * (s.level(0) - s.dv(0)));
+    for q in 0..=cur {
+        if q > 0 {
+            m = y(q - 1) + gap * (-(s.t0(q) - s.t0(q - 1)) / memory_s).exp();
+            prev_gap = gap;
+        }
+        gap = (m - y(q)).max(0.0);
+    }
+    let at = |g: f64, q: usize| g * (-(t - s.t0(q)).max(0.0) / memory_s).exp();
+    let now = at(gap, cur);
+    let before = if cur > 0 { at(prev_gap, cur - 1) } else { 0.0 };
+    dir * (now + (before - now) * super::decay((t - s.t0(cur)) / s.tau(cur)))
+}
+
 /// The later half of a hold (and after 3τ).
 fn late_half(h: &Hold) -> Vec<f64> {
     h.residuals_from((0.5 * (h.t0_s + h.end_s)).max(h.t0_s + 3.0 * h.tau_s))
@@ -89,6 +117,73 @@ mod tests {
         // the trait's default (before the top is reached twice) is the unloading steps alone
         let once = super::super::UpDown { t0: [0.0, 10.0], top: 2.0, after: 1.0 };
         assert!(once.after_peak(1) && !once.after_peak(0));
+    }
+
+    /// A staircase up three levels and down again, 20 s a hold. A memory far longer than the
+    /// recording gives the permanent memory's column; one of 30 s closes the gap within a hold
+    /// (e^(−20/30) of it left at the next step), and the next removal's gap is the faded memory's
+    /// distance to the new level, not the top's.
+    #[test]
+    fn a_fading_memory_closes_the_gap_to_the_peak() {
+        struct Stairs;
+        const L: [f64; 6] = [1.0, 2.0, 3.0, 2.0, 1.0, 0.0];
+        impl Steps for Stairs {
+            fn t0(&self, q: usize) -> f64 {
+                20.0 * q as f64
+            }
+            fn tau(&self, _: usize) -> f64 {
+                0.5
+            }
+            fn dv(&self, q: usize) -> f64 {
+                L[q] - if q > 0 { L[q - 1] } else { 0.0 }
+            }
+            fn level(&self, q: usize) -> f64 {
+                L[q]
+            }
+            fn below_top(&self, q: usize) -> f64 {
+                3.0 - L[q]
+            }
+            fn unloading(&self, q: usize) -> bool {
+                q >= 3
+            }
+        }
+        for q in 0..6 {
+            for t in [20.0 * q as f64 + 0.3, 20.0 * q as f64 + 5.0, 20.0 * q as f64 + 19.9] {
+                let (a, b) = (column(&Stairs, q, t), fading_column(&Stairs, q, t, 1e12));
+                assert!((a - b).abs() < 1e-9, "step {q}, t {t}: {a} vs {b}");
+            }
+        }
+        let m = 30.0;
+        // the first removal: the gap 1, fading from the step's onset
+        assert!((fading_column(&Stairs, 3, 79.9, m) - (-19.9f64 / m).exp()).abs() < 1e-6);
+        // the second: the memory left at its onset (2 + e^(−20/30)) less its level (1)
+        let g4 = 1.0 + (-20.0f64 / m).exp();
+        assert!((fading_column(&Stairs, 4, 99.9, m) - g4 * (-19.9f64 / m).exp()).abs() < 1e-6);
+        // no gap while the load rises
+        assert_eq!(fading_column(&Stairs, 2, 55.0, m), 0.0);
+        // a read-out whose level falls with the load: the same gap, with the levels' sign
+        struct Falling;
+        impl Steps for Falling {
+            fn t0(&self, q: usize) -> f64 {
+                Stairs.t0(q)
+            }
+            fn tau(&self, q: usize) -> f64 {
+                Stairs.tau(q)
+            }
+            fn dv(&self, q: usize) -> f64 {
+                -Stairs.dv(q)
+            }
+            fn level(&self, q: usize) -> f64 {
+                -Stairs.level(q)
+            }
+            fn below_top(&self, q: usize) -> f64 {
+                Stairs.below_top(q)
+            }
+            fn unloading(&self, q: usize) -> bool {
+                Stairs.unloading(q)
+            }
+        }
+        assert!((fading_column(&Falling, 4, 99.9, m) + fading_column(&Stairs, 4, 99.9, m)).abs() < 1e-12);
     }
 
     #[test]

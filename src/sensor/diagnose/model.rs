@@ -87,6 +87,9 @@ pub(super) struct Config {
     pub(super) drift_tau: Option<f64>,
     /// The clip is an amplifier's rail before the noise (its plateau is the rail ± the noise).
     pub(super) clip_rail: bool,
+    /// Hysteresis whose peak memory fades toward the present level with this time (s); None: the
+    /// peak is remembered for good.
+    pub(super) hyst_memory_s: Option<f64>,
     /// The creep term's form.
     pub(super) creep: CreepForm,
 }
@@ -217,6 +220,7 @@ impl Config {
             rest_tau: None,
             drift_tau: None,
             clip_rail: false,
+            hyst_memory_s: None,
             creep: CreepForm::Restarting,
         }
     }
@@ -391,7 +395,14 @@ impl Design {
                 Effect::Creep if cfg.creep.through() => out[col] = cur.map(|s| steps.creep_through_column(s, t)).unwrap_or(0.0),
                 Effect::Creep if cfg.creep.superposed() => out[col] = cur.map(|s| catalogue::creep::superposed_column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
-                Effect::Hysteresis => out[col] = cur.map(|s| catalogue::hysteresis::column(&steps, s, t)).unwrap_or(0.0),
+                Effect::Hysteresis => {
+                    out[col] = cur
+                        .map(|s| match cfg.hyst_memory_s {
+                            Some(m) => catalogue::hysteresis::fading_column(&steps, s, t, m),
+                            None => catalogue::hysteresis::column(&steps, s, t),
+                        })
+                        .unwrap_or(0.0)
+                }
                 Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, landed, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
                 Effect::BaselineDrift => out[col] = catalogue::baseline_drift::column(t, tr.t[0], cfg.drift_tau),
                 Effect::Relaxation => {

@@ -20,7 +20,10 @@ pub(super) fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Ha
             serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span, "superposed": true})
         }
         Effect::Creep => serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span}),
-        Effect::Hysteresis => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span}),
+        Effect::Hysteresis => match c.hyst_memory_s {
+            Some(m) => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span, "memory_s": m}),
+            None => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span}),
+        },
         Effect::RestRelaxation => {
             let r0 = d.rest_col(c);
             serde_json::json!({"tau_s": c.rest_tau, "amplitude_at_start_by_trial": (0..d.n_rests(c)).map(|q| at(r0 + q)).collect::<Vec<_>>()})

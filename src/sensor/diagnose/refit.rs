@@ -37,6 +37,13 @@ pub(super) fn final_refit(
                 cur_r = refit_onsets(d, &trials, &cur, hat);
             }
         }
+        // a hysteresis's memory, kept for good or fading, on the refitted shape
+        if cur.effects.contains(&Effect::Hysteresis) {
+            if let Some(c) = cur_r.as_ref().and_then(|(g, _)| refine_memory(d, g, &cur, hat)) {
+                cur = c;
+                cur_r = refit_onsets(d, &trials, &cur, hat);
+            }
+        }
         match (refit_onsets(d, base_fit, base_cfg, hat0), cur_r) {
             (Some((gb, xb2)), Some((gc, xc2))) => {
                 base_segs = Some(gb);
