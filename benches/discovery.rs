@@ -335,6 +335,18 @@ fn main() {
                 s.effects.creep_in_conductance = true
             }),
         ),
+        // hysteresis whose peak memory fades (issue 15, item 3; family B's form): the remembered
+        // peak force fades toward the present force over 120 s, on holds of 40 s (the unloading
+        // branch's gap closes over the five removals), with the trials' nuisances
+        (
+            "hysteresis whose memory fades (120 s), holds 40 s, trial nuisances",
+            Box::new(|s, p| {
+                s.effects.hysteresis_memory_s = 120.0;
+                trial_nuisances(s);
+                p.hold_s = 40.0;
+                p.top_hold_s = 40.0
+            }),
+        ),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {
