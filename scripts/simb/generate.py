@@ -6,6 +6,7 @@ or BENCHMARKS.md was read). numpy only. Never tune this file on the detector's r
 after the first report must say why in its commit (docs/sim-family-b.md).
 
     generate.py --out DIR --seed-base N [--quick] [--only NAME,...]
+    generate.py --out DIR --seed-base N --only NAME [--protocol FILE.toml] [--noise-seed-offset K]
 
 writes, per case, DIR/<case>/trial{1,2,3}.csv (tipforge.recording/1; the FSR402-like cases have
 trial1.csv only), DIR/<case>/truth/trialN.csv (time_s, clean_v, clean_v_without) and
@@ -64,6 +65,34 @@ Choices where docs/sim-family-b.md is silent (each also noted where it is made):
   Preload, power law, tau1, nuisances and noise structure as in the lab cases; loading is hand.
 * Case folders are named b00, b01, ... (see case_list()); the recording's comment line says only
   that it is family B.
+
+Re-recording one case (--only NAME with --protocol and/or --noise-seed-offset; added for the
+advice benchmark, scripts/bench-advice-b; the physics above and every default case are unchanged):
+
+* --protocol FILE.toml (tipforge's protocol file: weights_g, hold_s, top_hold_s, baseline_s,
+  final_rest_s, cycles, touch_s; a missing field takes params/protocol-1000g.toml's value,
+  top_hold_s defaults to hold_s, final_rest_s to baseline_s, cycles to 1): the case is first
+  drawn and solved exactly as by default (same streams, same rejection), so the sensor, the
+  effect's parameters and magnitude (NOT re-scaled to the new protocol: the same sensor recorded
+  again), the loading mode and every trial's gain, offset and rest state are the original case's.
+  Only the load schedule is replaced: baseline_s of rest, the weights stacked one by one (a hold
+  of hold_s after each, top_hold_s at the top), then removed one by one in reverse order (hold_s
+  after each), all of it `cycles` times; the last removal is followed by final_rest_s instead
+  (between cycles the zero load is held hold_s). The handling of every change (touch timing and
+  press, actuator ramps, the spikes' positions for handling_spikes) is drawn anew from a handling
+  stream, by the description's rules; a hand's touch lasts touch_s instead when touch_s is longer
+  than the description's 0.2-0.8 s: it keeps its press (over the first half of the touch) and its
+  drawn release time (the log is written on release: the drawn touch's end, 0.8 s before to 0.8 s
+  after the logged change), so it starts touch_s earlier than that; the drawn start and duration
+  are kept in the change's record. An FSR402-like weight lands over touch_s before the logged
+  sample when touch_s is longer than one sample interval. Actuator ramps ignore touch_s. press_fraction, logging_offset_s and
+  logging_jitter_s are family A's handling model and are not used (family B's hand has its own).
+  case.json records the protocol, the original trials' schedules and the RMS the effect reaches on
+  the new schedule (achieved_rms_sigma; original_achieved_rms_sigma is the original's).
+* --noise-seed-offset K (default 0): K != 0 draws the noise from another stream (a new recording of
+  the same sensor); the handling stream of --protocol depends on K as well. Without --protocol the
+  schedule (holds and touches) stays the original's and only the noise changes. K = 0 without
+  --protocol is the default case, byte for byte.
 """
 
 import argparse
@@ -250,8 +279,9 @@ def draw_case_params(rng, spec):
     return p
 
 
-def draw_spikes(rng, p, n_changes):
-    which = sorted(rng.choice(n_changes, size=p["spike_count"], replace=False).tolist())
+def draw_spikes(rng, p, n_changes, count=None):
+    count = p["spike_count"] if count is None else count
+    which = sorted(rng.choice(n_changes, size=count, replace=False).tolist())
     return [dict(change=int(c), dur_s=U(rng, 0.03, 0.15), shape=U(rng, 1.0, 1.5),
                  pos=U(rng, 0.0, 1.0)) for c in which]
 
@@ -365,7 +395,8 @@ class Trial:
             d = lv[i + 1] - lv[i]
             if ch["kind"] == "jump":
                 # FSR402-like: the weight lands (or leaves) within one sample interval before the log
-                t0, t1 = tc - 1.0 / fs, tc
+                # (over dur_s before it when a --protocol's touch_s is longer)
+                t0, t1 = tc - ch.get("dur_s", 1.0 / fs), tc
             elif ch["kind"] == "ramp":
                 t1 = tc + ch["end_offset_s"]
                 t0 = t1 - ch["dur_s"]
@@ -613,6 +644,144 @@ def build_case(spec, seed_base):
 
 
 # ----------------------------------------------------------------------------------------------
+# re-recording a case on another protocol (--protocol, --noise-seed-offset)
+# ----------------------------------------------------------------------------------------------
+
+# A missing protocol field takes params/protocol-1000g.toml's value (top_hold_s: hold_s,
+# final_rest_s: baseline_s, cycles: 1).
+PROTOCOL_DEFAULTS = dict(weights_g=[200.0] * 5, hold_s=20.0, baseline_s=10.0, touch_s=0.0,
+                         press_fraction=0.0, logging_offset_s=0.3, logging_jitter_s=0.15)
+HAND_TOUCH_MAX_S = 0.8  # the description's touch range is 0.2-0.8 s
+# Tag of the re-recording's seed sequence (handling and noise streams); a non-zero word so that the
+# entropy cannot coincide with the case's own [seed_base, crc32(name)] padded with zeros.
+RERECORD_TAG = 0x5EC0
+
+
+def read_protocol(path):
+    """A tipforge protocol file, with the defaults filled in; raises ValueError when unusable."""
+    import tomllib
+    with open(path, "rb") as f:
+        raw = tomllib.load(f)
+    if raw.get("kind", "protocol") != "protocol":
+        raise ValueError("%s: kind is %r, not \"protocol\"" % (path, raw.get("kind")))
+    pr = dict(PROTOCOL_DEFAULTS)
+    pr.update({k: v for k, v in raw.items() if k != "kind"})
+    pr.setdefault("top_hold_s", pr["hold_s"])
+    pr.setdefault("final_rest_s", pr["baseline_s"])
+    pr.setdefault("cycles", 1)
+    pr["weights_g"] = [float(w) for w in pr["weights_g"]]
+    for k in ("hold_s", "top_hold_s", "baseline_s", "final_rest_s", "touch_s"):
+        pr[k] = float(pr[k])
+    if not pr["weights_g"] or min(pr["weights_g"]) <= 0:
+        raise ValueError("%s: weights_g must list positive weights" % path)
+    if int(pr["cycles"]) != pr["cycles"] or pr["cycles"] < 1:
+        raise ValueError("%s: cycles must be a whole number >= 1" % path)
+    pr["cycles"] = int(pr["cycles"])
+    if min(pr["hold_s"], pr["top_hold_s"], pr["final_rest_s"]) <= 0 or pr["baseline_s"] < 0:
+        raise ValueError("%s: holds must be > 0 s and baseline_s >= 0 s" % path)
+    return pr
+
+
+def protocol_schedule(pr):
+    """(rest before the first weight, holds after each change, levels in g incl. the first 0)."""
+    ws = pr["weights_g"]
+    up = list(np.cumsum(ws))
+    down = up[-2::-1] + [0.0]  # removed one by one, last placed first
+    levels, holds = [0.0], []
+    for c in range(pr["cycles"]):
+        for i, lv in enumerate(up):
+            levels.append(float(lv))
+            holds.append(pr["top_hold_s"] if i == len(up) - 1 else pr["hold_s"])
+        for i, lv in enumerate(down):
+            levels.append(float(lv))
+            last = c == pr["cycles"] - 1 and i == len(down) - 1
+            holds.append(pr["final_rest_s"] if last else pr["hold_s"])
+    return pr["baseline_s"], holds, levels
+
+
+def draw_trial_protocol(rng, spec, p, pr, orig):
+    """A trial on protocol pr: the schedule from pr, each change's handling drawn from rng by the
+    description's rules, the nuisances (gain, offset, rest state) the original trial's."""
+    fs = p["fs"]
+    rest, holds, levels = protocol_schedule(pr)
+    t = dict(rest_s=rest, holds_s=holds)
+    k = int(round(rest * fs))
+    changes = []
+    for hold in holds:
+        changes.append(k)
+        k += int(round(hold * fs))
+    t["n_samples"] = k
+    t["change_samples"] = changes
+    t["levels_g"] = levels
+    ch = []
+    for _ in changes:
+        if spec["kind"] == "fsr402":
+            c = dict(kind="jump")
+            if pr["touch_s"] > 1.0 / fs:
+                c["dur_s"] = pr["touch_s"]
+        elif spec["loading"] == "actuator":
+            c = dict(kind="ramp", dur_s=U(rng, 6.0, 9.0), end_offset_s=U(rng, -0.5, 0.5))
+        else:
+            c = dict(kind="touch", start_before_s=U(rng, 0.0, 1.0), dur_s=U(rng, 0.2, 0.8),
+                     press=U(rng, 0.05, 0.2))
+            if pr["touch_s"] > HAND_TOUCH_MAX_S:
+                # a slower placement: the hand lowers the weight over touch_s and releases it when
+                # the drawn touch would have (the log is written on release), so the touch starts
+                # earlier by the extra duration; the press keeps its share of the first half
+                c["drawn_start_before_s"], c["drawn_dur_s"] = c["start_before_s"], c["dur_s"]
+                c["start_before_s"] = c["start_before_s"] + pr["touch_s"] - c["dur_s"]
+                c["dur_s"] = pr["touch_s"]
+        ch.append(c)
+    t["changes"] = ch
+    for key in ("gain", "offset_sigma", "rest_amp_sigma", "rest_tau_s"):
+        t[key] = orig[key]
+    return t
+
+
+def rerecord_case(spec, seed_base, protocol_path=None, noise_seed_offset=0):
+    """The case drawn and solved as by default, then (with a protocol) its trials rebuilt on the
+    protocol's schedule with the same sensor, effect parameters, magnitude and nuisances.
+    Returns what build_case returns (the noise sequence from the offset's stream when K != 0)."""
+    p, trials, s_noise, rec = build_case(spec, seed_base)
+    s_handling, s_noise_k = np.random.SeedSequence(
+        list(rec["seeds"]["entropy"]) + [RERECORD_TAG, int(noise_seed_offset)]).spawn(2)
+    if noise_seed_offset != 0:
+        s_noise = s_noise_k
+    rec["noise_seed_offset"] = int(noise_seed_offset)
+    if protocol_path is None:
+        return p, trials, s_noise, rec
+    pr = read_protocol(protocol_path)
+    rng_h = np.random.default_rng(s_handling)
+    mag = rec["magnitude"]
+    trs = [draw_trial_protocol(rng_h, spec, p, pr, t.tr) for t in trials]
+    spikes = None
+    if trials[0].spikes is not None:
+        spikes = []
+        for tr in trs:
+            n_ch = len(tr["changes"])
+            spikes.append(draw_spikes(rng_h, p, n_ch, count=min(p["spike_count"], n_ch)))
+    new = [Trial(spec, p, trs[i], spikes[i] if spikes else None) for i in range(len(trs))]
+    sig = p["sigma_v"]
+    ach = pooled_rms(new, mag) / sig if spec["effect"] != "null" else 0.0
+    rec["original_achieved_rms_sigma"] = rec["achieved_rms_sigma"]
+    rec["achieved_rms_sigma"] = ach
+    rec["original_trials"] = rec["trials"]
+    rec["trials"] = [t.tr for t in new]
+    if spikes is not None:
+        rec["solve"]["original_spikes"] = rec["solve"].get("spikes")
+        rec["solve"]["spikes"] = [[dict(sp, amplitude_x_weight=mag * sp["shape"]) for sp in sl]
+                                  for sl in spikes]
+    rec["rerecorded"] = dict(
+        protocol_file=os.path.abspath(protocol_path), protocol=pr,
+        note="same sensor, effect parameters and magnitude (not re-scaled), trial nuisances; "
+             "schedule from the protocol; handling drawn from SeedSequence(entropy + [%d, "
+             "noise_seed_offset]).spawn(2)[0], noise from [1] when noise_seed_offset != 0"
+             % RERECORD_TAG)
+    rec["seeds"]["noise_seed_offset"] = int(noise_seed_offset)
+    return p, new, s_noise, rec
+
+
+# ----------------------------------------------------------------------------------------------
 # writing
 # ----------------------------------------------------------------------------------------------
 
@@ -648,9 +817,13 @@ def write_text(path, text):
     os.replace(tmp, path)
 
 
-def generate_case(spec, seed_base, out_dir):
-    """Generates one case into out_dir/<name>/; returns its case.json record."""
-    p, trials, s_noise, rec = build_case(spec, seed_base)
+def generate_case(spec, seed_base, out_dir, protocol_path=None, noise_seed_offset=0):
+    """Generates one case into out_dir/<name>/; returns its case.json record. With a protocol or
+    a noise seed offset, the case re-recorded (rerecord_case)."""
+    if protocol_path is None and noise_seed_offset == 0:
+        p, trials, s_noise, rec = build_case(spec, seed_base)
+    else:
+        p, trials, s_noise, rec = rerecord_case(spec, seed_base, protocol_path, noise_seed_offset)
     d = os.path.join(out_dir, spec["name"])
     os.makedirs(os.path.join(d, "truth"), exist_ok=True)
     noise_ss = s_noise.spawn(len(trials))
@@ -713,21 +886,37 @@ def main(argv=None):
     ap.add_argument("--seed-base", type=int, required=True)
     ap.add_argument("--quick", action="store_true", help="only the 1-sigma cases and 8 null cases")
     ap.add_argument("--only", default="", help="comma-separated case names")
+    ap.add_argument("--protocol", default=None,
+                    help="with --only NAME: re-record that case on this protocol file (TOML)")
+    ap.add_argument("--noise-seed-offset", type=int, default=0,
+                    help="with --only NAME: draw the noise (and handling) from another stream")
     a = ap.parse_args(argv)
     specs = quick_list() if a.quick else case_list()
     if a.only:
         want = set(a.only.split(","))
         specs = [s for s in specs if s["name"] in want]
+    rerecord = a.protocol is not None or a.noise_seed_offset != 0
+    if rerecord and (len(a.only.split(",")) != 1 or len(specs) != 1):
+        ap.error("--protocol and --noise-seed-offset need --only with one known case name")
+    if a.protocol is not None:
+        try:
+            read_protocol(a.protocol)
+        except (OSError, ValueError) as e:
+            ap.error("--protocol: %s" % e)
     os.makedirs(a.out, exist_ok=True)
     t0 = time.time()
     for s in specs:
-        rec = generate_case(s, a.seed_base, a.out)
+        rec = generate_case(s, a.seed_base, a.out, a.protocol, a.noise_seed_offset)
         flag = "" if rec["target_reached"] else "  (target not reached)"
         tgt = "fall %.3f" % rec["solve"]["fall_achieved"] if s["kind"] == "fsr402" else \
             "%s sigma" % s["target_sigma"]
         print("%s %-22s %-5s %-8s target %-12s achieved %.3f sigma%s" % (
             s["name"], s["effect"], s["protocol"], s["loading"], tgt, rec["achieved_rms_sigma"], flag),
             flush=True)
+        if rerecord:
+            print("  re-recorded: protocol %s, noise seed offset %d (magnitude and parameters as "
+                  "drawn for the original; achieved above is on this schedule)" % (
+                      a.protocol or "(the original's)", a.noise_seed_offset), flush=True)
     print("generated %d cases in %.1f s" % (len(specs), time.time() - t0))
 
 
