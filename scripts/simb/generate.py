@@ -78,7 +78,8 @@ advice benchmark, scripts/bench-advice-b; the physics above and every default ca
   Only the load schedule is replaced: baseline_s of rest, the weights stacked one by one (a hold
   of hold_s after each, top_hold_s at the top), then removed one by one in reverse order (hold_s
   after each), all of it `cycles` times; the last removal is followed by final_rest_s instead
-  (between cycles the zero load is held hold_s). The handling of every change (touch timing and
+  (between cycles the zero load is held baseline_s, as `tipforge simulate` reads the same file:
+  checked on its output's load column, a black box). The handling of every change (touch timing and
   press, actuator ramps, the spikes' positions for handling_spikes) is drawn anew from a handling
   stream, by the description's rules; a hand's touch lasts touch_s instead when touch_s is longer
   than the description's 0.2-0.8 s: it keeps its press (over the first half of the touch) and its
@@ -677,8 +678,10 @@ def read_protocol(path):
     if int(pr["cycles"]) != pr["cycles"] or pr["cycles"] < 1:
         raise ValueError("%s: cycles must be a whole number >= 1" % path)
     pr["cycles"] = int(pr["cycles"])
-    if min(pr["hold_s"], pr["top_hold_s"], pr["final_rest_s"]) <= 0 or pr["baseline_s"] < 0:
-        raise ValueError("%s: holds must be > 0 s and baseline_s >= 0 s" % path)
+    if min(pr["hold_s"], pr["top_hold_s"], pr["final_rest_s"]) <= 0 or pr["baseline_s"] < 0 or \
+            (pr["cycles"] > 1 and pr["baseline_s"] <= 0):
+        raise ValueError("%s: holds must be > 0 s and baseline_s >= 0 s (> 0 s with cycles > 1)"
+                         % path)
     return pr
 
 
@@ -694,8 +697,10 @@ def protocol_schedule(pr):
             holds.append(pr["top_hold_s"] if i == len(up) - 1 else pr["hold_s"])
         for i, lv in enumerate(down):
             levels.append(float(lv))
-            last = c == pr["cycles"] - 1 and i == len(down) - 1
-            holds.append(pr["final_rest_s"] if last else pr["hold_s"])
+            if i < len(down) - 1:
+                holds.append(pr["hold_s"])
+            else:  # zero load: baseline_s before the next cycle (as tipforge simulate reads it)
+                holds.append(pr["final_rest_s"] if c == pr["cycles"] - 1 else pr["baseline_s"])
     return pr["baseline_s"], holds, levels
 
 
