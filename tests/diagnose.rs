@@ -704,9 +704,9 @@ fn small_handling_spikes_are_named() {
 /// Issue 15, item 3: hysteresis whose peak memory fades (family A's `memory_s`: the remembered
 /// peak force fades toward the present force). A 1 % hysteresis fading over 60 s on 20 s holds is
 /// named hysteresis (as the permanent form names it), and the final model carries a fading memory
-/// of 60–120 s: its error to the noise-free truth stays under 0.16 mV, where the permanent memory
-/// left 0.215 mV (0.107–0.110 mV with the fading one; other seeds). A permanent memory keeps none.
-/// Fresh seeds.
+/// within 20 % of 60 s: its error to the noise-free truth stays under 0.13 mV, where the permanent
+/// memory left 0.215 mV (0.087–0.090 mV with the fading one, memory 61.5–62.8 s; other seeds). A
+/// permanent memory keeps none. Fresh seeds.
 #[test]
 fn a_fading_hysteresis_is_modelled_with_its_memory() {
     for (memory_s, seed) in [(60.0, 95_001u64), (60.0, 95_011), (0.0, 95_021)] {
@@ -721,11 +721,11 @@ fn a_fading_hysteresis_is_modelled_with_its_memory() {
         let (_, improved) = truth_errors(&d, seed, f);
         if memory_s > 0.0 {
             let m = fitted.unwrap_or_else(|| panic!("seed {seed}: no memory in {}", h.term.params));
-            assert!((60.0..=120.0).contains(&m), "seed {seed}: memory {m} s");
-            assert!(improved < 0.16e-3, "seed {seed}: improved error to the truth {improved} V");
+            assert!((m / 60.0 - 1.0).abs() < 0.2, "seed {seed}: memory {m} s");
+            assert!(improved < 0.13e-3, "seed {seed}: improved error to the truth {improved} V");
         } else {
             assert_eq!(fitted, None, "seed {seed}: a permanent memory fitted as fading: {}", h.term.params);
-            assert!(improved < 0.16e-3, "seed {seed}: improved error to the truth {improved} V");
+            assert!(improved < 0.13e-3, "seed {seed}: improved error to the truth {improved} V");
         }
     }
 }

@@ -192,3 +192,19 @@ fn a_twin_needs_the_divider_and_writes_nothing_without_it() {
     assert!(!d.join("twin.toml").exists() && !d.join("diag").exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A hysteresis whose memory fades (60 s on 20 s holds): the twin carries the fraction within
+/// 10 % and the memory within 25 % (measured 0.00999 and 64 s), and reproduces the recording
+/// within the bar, 1.1 × the improved model's held-out RMSE (1.054 mV against 0.987 mV; its
+/// first-order part, g_ref 0.3 % high, leaves it 10 % over the truth's own 0.957 mV, so the
+/// stricter bar of the first test is not asserted here).
+#[test]
+fn a_twin_carries_a_fading_hysteresis_memory() {
+    let edit = [("fraction = 0.0            # unloading", "fraction = 0.01 # unloading"), ("memory_s = 0.0 ", "memory_s = 60.0 ")];
+    let (d, t, heldout) = round_trip("hyst-fading", 530, &edit);
+    within("hysteresis", t.effects.hysteresis, 0.01, 0.10);
+    within("memory_s", t.effects.hysteresis_memory_s, 60.0, 0.25);
+    let (e, floor) = twin_error(&d, 530);
+    assert!(e <= 1.1 * heldout, "twin {e} V vs held-out {heldout} V, truth {floor} V");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -4,7 +4,8 @@
 //! load (later half of each hold), in standard errors.
 //! Term: once the highest load has been reached (every unloading step, and the loading steps of a
 //! later cycle), an offset proportional to the gap between the highest load's level and this
-//! load's level, reached with the step's own time constant: the memory of the peak persists.
+//! load's level, reached with the step's own time constant: the memory of the peak persists; or,
+//! once the names stand, a memory that fades toward the present load (`fading_column`).
 //! Physics: the contact area remembers the highest load.
 
 use super::{offset_z, sig3, Hold, Located, Steps, MIN_SIGNATURE_Z};
@@ -22,28 +23,31 @@ pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
 /// grid over the minutes a contact's memory of its peak can last.
 pub const MEMORY_S: [f64; 7] = [15.0, 30.0, 60.0, 120.0, 240.0, 480.0, 960.0];
 
-/// The term's column when the peak's memory fades with the time `memory_s`: the remembered level
-/// follows the response up at once and, below it, fades toward the present level,
-/// dM/dt = −(M − L)/T; the column is the gap M − L, each step's reached with its own time constant
-/// from the gap before it. Levels are taken along the direction the first step moves them, so a
-/// read-out whose level falls with the load remembers its lowest level. Without fading
-/// (T → ∞) and on a staircase up and down, it is [`column`].
-pub fn fading_column(s: &impl Steps, cur: usize, t: f64, memory_s: f64) -> f64 {
-    let dir = if (s.dv(0) >= 0.0) != s.unloading(0) { 1.0 } else { -1.0 };
-    let y = |q: usize| dir * s.level(q);
-    // the gap at each step's onset, the memory carried from the step before
-    let (mut gap, mut prev_gap, mut m) = (0.0, 0.0, dir * (s.level(0) - s.dv(0)));
+/// The term's column when the peak's memory fades with the time `memory_s`: the remembered load
+/// follows the load up at once and, below it, fades toward the present load,
+/// dP/dt = −(P − F)/T; the column is the gap in level between the remembered load and the present
+/// one (`level_at`, the level at any load, relative as `Steps::level`), each step's reached with
+/// its own time constant from the gap before it. `load(q)` is step q's load, `start` the load
+/// before the first step. Without fading (T → ∞) and on a staircase up and down, it is
+/// [`column`].
+pub fn fading_column(s: &impl Steps, (cur, t): (usize, f64), memory_s: f64, (start, load): (f64, impl Fn(usize) -> f64), level_at: impl Fn(f64) -> f64) -> f64 {
+    // the remembered load at each step's onset, carried from the step before
+    let (mut peak, mut prev_peak) = (start, start);
     for q in 0..=cur {
         if q > 0 {
-            m = y(q - 1) + gap * (-(s.t0(q) - s.t0(q - 1)) / memory_s).exp();
-            prev_gap = gap;
+            prev_peak = peak;
+            peak = load(q - 1) + (peak - load(q - 1)) * (-(s.t0(q) - s.t0(q - 1)) / memory_s).exp();
         }
-        gap = (m - y(q)).max(0.0);
+        peak = peak.max(load(q));
     }
-    let at = |g: f64, q: usize| g * (-(t - s.t0(q)).max(0.0) / memory_s).exp();
-    let now = at(gap, cur);
-    let before = if cur > 0 { at(prev_gap, cur - 1) } else { 0.0 };
-    dir * (now + (before - now) * super::decay((t - s.t0(cur)) / s.tau(cur)))
+    // the gap in level at t from a remembered load at an onset, fading toward the step's load
+    let gap = |p: f64, q: usize| {
+        let now = load(q) + (p - load(q)).max(0.0) * (-(t - s.t0(q)).max(0.0) / memory_s).exp();
+        level_at(now) - level_at(load(q))
+    };
+    let now = gap(peak, cur);
+    let before = if cur > 0 { gap(prev_peak.max(load(cur - 1)), cur - 1) } else { 0.0 };
+    now + (before - now) * super::decay((t - s.t0(cur)) / s.tau(cur))
 }
 
 /// The later half of a hold (and after 3τ).
@@ -147,43 +151,34 @@ mod tests {
                 q >= 3
             }
         }
+        // loads in grams, 100 g a level unit
+        let load = |q: usize| 100.0 * L[q];
+        let lin = |g: f64| g / 100.0;
+        let fading = |q: usize, t: f64, m: f64| fading_column(&Stairs, (q, t), m, (0.0, load), lin);
         for q in 0..6 {
             for t in [20.0 * q as f64 + 0.3, 20.0 * q as f64 + 5.0, 20.0 * q as f64 + 19.9] {
-                let (a, b) = (column(&Stairs, q, t), fading_column(&Stairs, q, t, 1e12));
+                let (a, b) = (column(&Stairs, q, t), fading(q, t, 1e12));
                 assert!((a - b).abs() < 1e-9, "step {q}, t {t}: {a} vs {b}");
             }
         }
         let m = 30.0;
         // the first removal: the gap 1, fading from the step's onset
-        assert!((fading_column(&Stairs, 3, 79.9, m) - (-19.9f64 / m).exp()).abs() < 1e-6);
+        assert!((fading(3, 79.9, m) - (-19.9f64 / m).exp()).abs() < 1e-6);
         // the second: the memory left at its onset (2 + e^(−20/30)) less its level (1)
         let g4 = 1.0 + (-20.0f64 / m).exp();
-        assert!((fading_column(&Stairs, 4, 99.9, m) - g4 * (-19.9f64 / m).exp()).abs() < 1e-6);
+        assert!((fading(4, 99.9, m) - g4 * (-19.9f64 / m).exp()).abs() < 1e-6);
         // no gap while the load rises
-        assert_eq!(fading_column(&Stairs, 2, 55.0, m), 0.0);
+        assert_eq!(fading(2, 55.0, m), 0.0);
+        // the gap is the level's at the remembered load: a read-out that compresses its top levels
+        // (level ∝ √load) shows the same remembered load as a smaller gap
+        let sqrt = |g: f64| (g / 100.0).sqrt();
+        let p4 = 100.0 + 100.0 * (1.0 + (-20.0f64 / m).exp()) * (-19.9f64 / m).exp();
+        let want = sqrt(p4) - sqrt(100.0);
+        let got = fading_column(&Stairs, (4, 99.9), m, (0.0, load), sqrt);
+        assert!((got - want).abs() < 1e-9 && got < fading(4, 99.9, m), "{got} vs {want}");
         // a read-out whose level falls with the load: the same gap, with the levels' sign
-        struct Falling;
-        impl Steps for Falling {
-            fn t0(&self, q: usize) -> f64 {
-                Stairs.t0(q)
-            }
-            fn tau(&self, q: usize) -> f64 {
-                Stairs.tau(q)
-            }
-            fn dv(&self, q: usize) -> f64 {
-                -Stairs.dv(q)
-            }
-            fn level(&self, q: usize) -> f64 {
-                -Stairs.level(q)
-            }
-            fn below_top(&self, q: usize) -> f64 {
-                Stairs.below_top(q)
-            }
-            fn unloading(&self, q: usize) -> bool {
-                Stairs.unloading(q)
-            }
-        }
-        assert!((fading_column(&Falling, 4, 99.9, m) + fading_column(&Stairs, 4, 99.9, m)).abs() < 1e-12);
+        let neg = |g: f64| -g / 100.0;
+        assert!((fading_column(&Stairs, (4, 99.9), m, (0.0, load), neg) + fading(4, 99.9, m)).abs() < 1e-12);
     }
 
     #[test]

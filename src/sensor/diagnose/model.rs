@@ -255,6 +255,25 @@ impl Hat {
     pub(super) fn response_of(&self, i: usize, l: f64) -> f64 {
         self.offset.get(i).copied().unwrap_or(0.0) + self.level_of(l)
     }
+    /// The level at any load between the recording's: linear between the two nearest loads
+    /// (the end's level beyond them).
+    pub(super) fn level_at(&self, l: f64) -> f64 {
+        let (mut below, mut above) = (None::<(f64, f64)>, None::<(f64, f64)>);
+        for (&x, &y) in self.loads.iter().zip(&self.level) {
+            if x <= l && below.is_none_or(|b| x > b.0) {
+                below = Some((x, y));
+            }
+            if x >= l && above.is_none_or(|a| x < a.0) {
+                above = Some((x, y));
+            }
+        }
+        match (below, above) {
+            (Some(b), Some(a)) if a.0 > b.0 => b.1 + (a.1 - b.1) * (l - b.0) / (a.0 - b.0),
+            (Some(b), _) => b.1,
+            (_, Some(a)) => a.1,
+            _ => 0.0,
+        }
+    }
     pub(super) fn max_level(&self) -> f64 {
         self.loads.iter().zip(&self.level).max_by(|a, b| a.0.partial_cmp(b.0).unwrap()).map(|x| *x.1).unwrap_or(0.0)
     }
@@ -398,7 +417,10 @@ impl Design {
                 Effect::Hysteresis => {
                     out[col] = cur
                         .map(|s| match cfg.hyst_memory_s {
-                            Some(m) => catalogue::hysteresis::fading_column(&steps, s, t, m),
+                            Some(m) => {
+                                let load = |q: usize| tr.segs[q].load;
+                                catalogue::hysteresis::fading_column(&steps, (s, t), m, (tr.segs[0].prev, load), |l| hat.level_at(l) - steps.l0)
+                            }
                             None => catalogue::hysteresis::column(&steps, s, t),
                         })
                         .unwrap_or(0.0)
@@ -635,6 +657,16 @@ pub(super) fn sample_interval(tr: &Trial) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The level between the recording's loads is linear between the nearest two, in any order
+    /// of the loads, and the end's beyond them.
+    #[test]
+    fn the_level_between_loads_is_interpolated() {
+        let hat = Hat { loads: vec![400.0, 0.0, 200.0], level: vec![1.0, 0.0, 0.8], offset: vec![] };
+        for (l, want) in [(0.0, 0.0), (100.0, 0.4), (200.0, 0.8), (300.0, 0.9), (400.0, 1.0), (500.0, 1.0), (-10.0, 0.0)] {
+            assert!((hat.level_at(l) - want).abs() < 1e-12, "{l}: {}", hat.level_at(l));
+        }
+    }
 
     fn seg(key: usize, t0: f64, prev: f64, load: f64, tau: f64) -> Seg {
         Seg { key, t0, load, prev, tau, phase: Phase::Loading, t_log: t0, input: LoadIn::default(), sim: None }
