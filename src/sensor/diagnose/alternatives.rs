@@ -200,7 +200,11 @@ fn in_place(e: Effect, wo: &Config, ctx: &Ctx) -> Option<(Config, Score, Vec<f64
     } else {
         vec![c]
     };
-    forms.into_iter().filter_map(|c| score(ctx.d, ctx.trials, &c, ctx.hat).map(|(s, x)| (c, s, x))).min_by(|a, b| a.1.heldout_rmse.total_cmp(&b.1.heldout_rmse))
+    forms
+        .into_iter()
+        .filter_map(|c| score(ctx.d, ctx.trials, &c, ctx.hat).map(|(s, x)| (c, s, x)))
+        .filter(|(c, _, x)| of_its_sign(ctx.d, c, x, e))
+        .min_by(|a, b| a.1.heldout_rmse.total_cmp(&b.1.heldout_rmse))
 }
 
 /// How many of a second relaxation's time constants a hold must last for the recording to show it

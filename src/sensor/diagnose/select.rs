@@ -134,7 +134,8 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         // the drift's
         // (checked last: it is a cross-validated score of its own)
         let per_trial = || e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, &c, &s, hat);
-        if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) && per_trial() {
+        // and a creep or a hysteresis must have its physics' sign (`gate::of_its_sign`)
+        if gain > least && z >= MIN_Z && dbic <= MIN_DBIC && best.as_ref().is_none_or(|b| s.bic < b.2.bic) && of_its_sign(d, &c, &x, e) && per_trial() {
             best = Some((e, c, s, x));
         }
     }

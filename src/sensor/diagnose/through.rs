@@ -46,7 +46,7 @@ fn best_in_place(d: &Design, trials: &[Trial], hat: &Hat, cur: &Config) -> Optio
         let Some((b, _)) = train_bic(d, trials, &c, hat) else { continue };
         let (c, _) = through_exactly(d, trials, hat, (c, b));
         let Some((s, x)) = score(d, trials, &c, hat) else { continue };
-        if best.as_ref().is_none_or(|b| s.heldout_rmse < b.1.heldout_rmse) {
+        if of_its_sign(d, &c, &x, Effect::Creep) && best.as_ref().is_none_or(|b| s.heldout_rmse < b.1.heldout_rmse) {
             best = Some((c, s, x, gone));
         }
     }
