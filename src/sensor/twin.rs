@@ -67,8 +67,9 @@ pub fn sensor_toml(d: &Diagnosis, report: &Report, rec: &Recording) -> Result<St
     let sigma = noise_before_adc(d, report, m.adc_bits, m.vref_v.unwrap_or(vcc));
     // the law in the simulator's units: force in newtons including the preload
     let g_ref = f.g1 / N_PER_G.powf(f.n);
-    let tau_per_n = f.tau1_s_per_unit / N_PER_G;
-    let tau0 = f.tau0_s - tau_per_n * f.preload * N_PER_G;
+    // τ against the force (N, the preload included); the simulator takes no negative part
+    let at_force: Vec<(f64, f64)> = f.taus.iter().map(|t| ((t.0 + f.preload) * N_PER_G, t.1)).collect();
+    let (tau0, tau_per_n) = tau_line_nonneg(&at_force).unwrap_or((f.tau0_s - f.tau1_s_per_unit * f.preload, f.tau1_s_per_unit / N_PER_G));
     let mut t = String::new();
     let _ = writeln!(t, "# tipforge twin: written by `tipforge diagnose --write-sensor` from {}", d.recordings.join(", "));
     let _ = writeln!(t, "# The first-order part is the fashion curves of the improved model's levels and time constants; the effects are the diagnosis's");
@@ -184,4 +185,48 @@ fn noise_before_adc(d: &Diagnosis, report: &Report, bits: Option<u32>, vref: f64
     let measured = if per.is_empty() { median(&mut report.recordings.iter().map(|r| r.noise_sigma_raw).collect::<Vec<f64>>()) } else { median(&mut per) };
     let q2 = bits.map(|b| (vref / (1u64 << b.min(62)) as f64).powi(2) / 12.0).unwrap_or(0.0);
     (measured * measured - q2).max(0.0).sqrt()
+}
+
+/// The least-squares line τ = τ0 + τ1·F through (force, τ) points with τ0, τ1 ≥ 0 (the simulator's
+/// law): the free line when both come out non-negative, else the better of the line through the
+/// origin and the constant (a τ that falls with the force, or a line that would cross zero above
+/// no force, is held at the nearest law the simulator can run). None without points.
+fn tau_line_nonneg(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let n = pts.len() as f64;
+    if pts.is_empty() {
+        return None;
+    }
+    let (sx, sy) = (pts.iter().map(|p| p.0).sum::<f64>(), pts.iter().map(|p| p.1).sum::<f64>());
+    let (sxx, sxy) = (pts.iter().map(|p| p.0 * p.0).sum::<f64>(), pts.iter().map(|p| p.0 * p.1).sum::<f64>());
+    let det = n * sxx - sx * sx;
+    if det > 0.0 {
+        let b = (n * sxy - sx * sy) / det;
+        let a = (sy - b * sx) / n;
+        if a >= 0.0 && b >= 0.0 {
+            return Some((a, b));
+        }
+    }
+    let rss = |a: f64, b: f64| pts.iter().map(|p| (p.1 - a - b * p.0).powi(2)).sum::<f64>();
+    let constant = ((sy / n).max(0.0), 0.0);
+    let through_origin = (0.0, if sxx > 0.0 { (sxy / sxx).max(0.0) } else { 0.0 });
+    Some(if rss(through_origin.0, through_origin.1) < rss(constant.0, constant.1) { through_origin } else { constant })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The free line where it is the simulator's law; a τ that falls with the force is held
+    /// constant at its mean, and a line that would cross zero above no force goes through the
+    /// origin.
+    #[test]
+    fn the_time_constants_line_keeps_the_simulators_signs() {
+        let (a, b) = tau_line_nonneg(&[(1.0, 0.4), (2.0, 0.6), (3.0, 0.8)]).unwrap();
+        assert!((a - 0.2).abs() < 1e-12 && (b - 0.2).abs() < 1e-12, "{a} {b}");
+        let (a, b) = tau_line_nonneg(&[(1.0, 0.8), (2.0, 0.6), (3.0, 0.4)]).unwrap();
+        assert!((a - 0.6).abs() < 1e-12 && b == 0.0, "{a} {b}");
+        let (a, b) = tau_line_nonneg(&[(1.0, 0.05), (2.0, 0.6), (3.0, 1.1)]).unwrap();
+        assert!(a == 0.0 && b > 0.0 && (b - (0.05 + 1.2 + 3.3) / 14.0).abs() < 1e-12, "{a} {b}");
+        assert_eq!(tau_line_nonneg(&[]), None);
+    }
 }
