@@ -17,10 +17,6 @@
 
 use super::*;
 
-/// The paired z over held-out units that separates two explanations of one residual (a one-sided
-/// test at about 2.3 % when the units' differences are near normal).
-pub const Z_SEPARATE: f64 = 2.0;
-
 /// Another effect that explains a finding's residual about as well.
 #[derive(Debug, Clone, Serialize)]
 pub struct Alternative {

@@ -36,6 +36,11 @@ pub(super) fn least_gain(c: &Config) -> f64 {
     }
 }
 
+/// The paired z over held-out units that separates two explanations of one residual (a one-sided
+/// test at about 2.3 % when the units' differences are near normal): honest naming's, and what a
+/// hysteresis's fading memory must show against the permanent one.
+pub const Z_SEPARATE: f64 = 2.0;
+
 /// Least held-out RMSE gain for the signed-rank route of [`paired_z`].
 pub const MIN_ROBUST_GAIN: f64 = 0.03;
 

@@ -76,9 +76,10 @@ use terms::*;
 use through::*;
 
 pub use super::catalogue::Effect;
-pub use alternatives::{Alternative, Z_SEPARATE};
+pub use alternatives::Alternative;
 pub use baseline::{SimBaseline, MIN_PRELOAD_GAIN};
 pub use gate::MIN_ROBUST_GAIN;
+pub use gate::Z_SEPARATE;
 pub use heldout::Score;
 pub use nuisance::NuisanceTerm;
 pub use report::*;

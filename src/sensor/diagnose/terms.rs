@@ -169,7 +169,7 @@ pub(super) fn refine_memory(d: &Design, trials: &[Trial], cfg: &Config, hat: &Ha
     }
     let (now, _) = score(d, trials, cfg, hat)?;
     let (then, _) = score(d, trials, &c, hat)?;
-    (then.heldout_rmse < now.heldout_rmse && paired_z(&now.units, &then.units) >= alternatives::Z_SEPARATE).then_some(c)
+    (then.heldout_rmse < now.heldout_rmse && paired_z(&now.units, &then.units) >= Z_SEPARATE).then_some(c)
 }
 
 /// The conductance's creep through the read-out taken exactly at its fitted size: the column's
