@@ -19,7 +19,7 @@ pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
     h(cur) + (prev - h(cur)) * super::decay((t - s.t0(cur)) / s.tau(cur))
 }
 
-/// The fading memories (s) a hysteresis candidate is tried with, beside the permanent one: a log
+/// The fading memories (s) the final model's hysteresis is tried with, beside the permanent one: a log
 /// grid over the minutes a contact's memory of its peak can last.
 pub const MEMORY_S: [f64; 7] = [15.0, 30.0, 60.0, 120.0, 240.0, 480.0, 960.0];
 
