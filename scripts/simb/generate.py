@@ -287,6 +287,20 @@ def draw_spikes(rng, p, n_changes, count=None):
                  pos=U(rng, 0.0, 1.0)) for c in which]
 
 
+def set_schedule(t, fs, levels):
+    """The logged change times on the sample grid from t's rest and holds, the trial's length and
+    its levels, set in t; returns the change samples."""
+    k = int(round(t["rest_s"] * fs))
+    changes = []
+    for hold in t["holds_s"]:
+        changes.append(k)
+        k += int(round(hold * fs))
+    t["n_samples"] = k
+    t["change_samples"] = changes
+    t["levels_g"] = levels
+    return changes
+
+
 def draw_trial(rng, spec, p):
     """Per-trial structure and nuisances (holds, touches or ramps, gain, offset, rest state)."""
     fs = p["fs"]
@@ -300,15 +314,7 @@ def draw_trial(rng, spec, p):
         t["holds_s"] = [U(rng, 20.0, 90.0) for _ in range(10)]
         w = p["weight_g"]
         levels = [w * i for i in range(6)] + [w * i for i in range(4, -1, -1)]
-    # logged change times on the sample grid
-    k = int(round(t["rest_s"] * fs))
-    changes = []
-    for hold in t["holds_s"]:
-        changes.append(k)
-        k += int(round(hold * fs))
-    t["n_samples"] = k
-    t["change_samples"] = changes
-    t["levels_g"] = levels
+    changes = set_schedule(t, fs, levels)
     ch = []
     for _ in changes:
         if spec["kind"] == "fsr402":
@@ -710,14 +716,7 @@ def draw_trial_protocol(rng, spec, p, pr, orig):
     fs = p["fs"]
     rest, holds, levels = protocol_schedule(pr)
     t = dict(rest_s=rest, holds_s=holds)
-    k = int(round(rest * fs))
-    changes = []
-    for hold in holds:
-        changes.append(k)
-        k += int(round(hold * fs))
-    t["n_samples"] = k
-    t["change_samples"] = changes
-    t["levels_g"] = levels
+    changes = set_schedule(t, fs, levels)
     ch = []
     for _ in changes:
         if spec["kind"] == "fsr402":
