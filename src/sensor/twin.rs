@@ -117,8 +117,8 @@ fn effects(t: &mut String, d: &Diagnosis) {
             "hysteresis" => {
                 if let Some(v) = num(p, "fraction") {
                     let _ = writeln!(t, "[effects.hysteresis]\nfraction = {}", fmt(v));
-                    // a fading memory: the diagnosis fades the levels' gap, the simulator the
-                    // force's (the same where the levels are near linear in the force)
+                    // a fading memory: the remembered load fades toward the present one, in
+                    // the diagnosis as in the simulator
                     if let Some(m) = num(p, "memory_s") {
                         let _ = writeln!(t, "memory_s = {}", fmt(m));
                     }
@@ -192,20 +192,16 @@ fn noise_before_adc(d: &Diagnosis, report: &Report, bits: Option<u32>, vref: f64
 /// origin and the constant (a τ that falls with the force, or a line that would cross zero above
 /// no force, is held at the nearest law the simulator can run). None without points.
 fn tau_line_nonneg(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
-    let n = pts.len() as f64;
     if pts.is_empty() {
         return None;
     }
-    let (sx, sy) = (pts.iter().map(|p| p.0).sum::<f64>(), pts.iter().map(|p| p.1).sum::<f64>());
-    let (sxx, sxy) = (pts.iter().map(|p| p.0 * p.0).sum::<f64>(), pts.iter().map(|p| p.0 * p.1).sum::<f64>());
-    let det = n * sxx - sx * sx;
-    if det > 0.0 {
-        let b = (n * sxy - sx * sy) / det;
-        let a = (sy - b * sx) / n;
-        if a >= 0.0 && b >= 0.0 {
-            return Some((a, b));
-        }
+    let (x, y): (Vec<f64>, Vec<f64>) = pts.iter().copied().unzip();
+    let (b, a, _) = fashion::line(&x, &y);
+    if a >= 0.0 && b >= 0.0 {
+        return Some((a, b));
     }
+    let n = pts.len() as f64;
+    let (sy, sxx, sxy) = (y.iter().sum::<f64>(), x.iter().map(|v| v * v).sum::<f64>(), x.iter().zip(&y).map(|(u, v)| u * v).sum::<f64>());
     let rss = |a: f64, b: f64| pts.iter().map(|p| (p.1 - a - b * p.0).powi(2)).sum::<f64>();
     let constant = ((sy / n).max(0.0), 0.0);
     let through_origin = (0.0, if sxx > 0.0 { (sxy / sxx).max(0.0) } else { 0.0 });
