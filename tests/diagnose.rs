@@ -729,3 +729,25 @@ fn a_fading_hysteresis_is_modelled_with_its_memory() {
         }
     }
 }
+
+/// The physics' sign holds in the final model as in the selection: a hysteresis that entered a 3 %
+/// second relaxation's model third (+0.8 % held out, the onsets at part 1's values) turns negative
+/// once the final refit frees the onsets (`bench-advice`'s cases, 0 g preload, seeds 11 and 19). It
+/// is left out of the final model with a note, so every creep and hysteresis reported has its
+/// physics' sign and the twin can carry the model.
+#[test]
+fn a_term_of_the_other_sign_after_the_final_refit_leaves_the_model() {
+    let mut s = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
+    s.effects.second_fraction = 0.03;
+    let p = ProtocolParams::from_source(&load("params/protocol-1000g.toml")).unwrap();
+    for seed0 in [11, 19] {
+        let recs: Vec<_> = (0..3).map(|k| simulate(&s, &p, 0.0, None, seed0 + k).0).collect();
+        let d = diagnose(&recs, &Default::default()).unwrap();
+        assert!(d.findings.iter().any(|f| f.effect == "second_time_constant"), "seed {seed0}: {:?}", d.final_.effects);
+        for f in d.findings.iter().filter(|f| matches!(f.effect, "creep" | "hysteresis")) {
+            let frac = f.term.params.get("fraction").or_else(|| f.term.params.get("per_decade_fraction")).and_then(|v| v.as_f64()).unwrap_or(0.0);
+            assert!(frac >= 0.0, "seed {seed0}: {} of fraction {frac} in the final model", f.effect);
+        }
+        assert!(d.final_.effects.iter().all(|e| d.findings.iter().any(|f| f.effect == *e) || *e == "rest_relaxation"), "seed {seed0}: {:?}", d.final_.effects);
+    }
+}

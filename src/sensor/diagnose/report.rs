@@ -297,6 +297,7 @@ pub(super) fn diagnosis(
     let Selected { cfg: cur, score: cur_score, x: cur_x, hat, mut findings, decisions, mut nuisances, exact: spectrum_exact } = ch;
     // a clip reported on its plateau alone is one whose samples pile up (`piled`), never a rail's
     findings.extend(reported_only(&trials, &cur, &cur_score, piled, &report, (&base, clean)));
+    let (cur, cur_x, cur_score, dropped) = refit::of_their_sign_refitted(&d, &trials, &hat, (cur, cur_x, cur_score), &mut findings);
     let unexplained = unexplained(&d, &trials, &cur_x, &cur, &hat, &report.unit);
     let (cur, cur_x, final_trials, final_base, xb) = refit::final_refit(&d, trials, base_eval, &base_fit, (&base_cfg, &hat0, xb), (cur, cur_x, &hat), &mut findings, refit_always);
     let predictions = refit::predictions(recs, &d, &final_trials, &final_base, (&base_cfg, &hat0, &xb), (&cur, &hat, &cur_x), &findings);
@@ -309,6 +310,7 @@ pub(super) fn diagnosis(
     let final_names = final_names(&cur, &mut findings, spectrum_exact.as_ref());
     let mut notes: Vec<String> =
         report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after))).collect();
+    notes.extend(dropped);
     if let Some(w) = touch {
         notes.push(format!(
             "the hand's touch: from {:.1} s before each step's onset to {:.1} s after it the data leave the model by more than {} × the holds' mean square, by {} × next to the onsets (the load placed, pressed, let go); those samples are handling, neither fitted nor scored",
