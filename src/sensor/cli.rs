@@ -53,13 +53,15 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, actuator: bool, out:
     }
     let recs = g.finish(recs)?;
     bar.step("fitting the steps");
-    // an actuator's load ramps in: the steps are fitted from each ramp's end (issue 15, item 1)
+    // an actuator's load ramps in, or a hand lowers it slowly: the steps are fitted from each ramp's
+    // end (issue 15, item 1)
     opts.pre.ramp = super::diagnose::load_ramp(&recs, &opts);
     let (report, prep) = analyze::analyze(&recs, &opts);
     let mut lines = Vec::new();
     if let Some(r) = opts.pre.ramp {
         lines.push(format!(
-            "load ramp (an actuator's): {:.1} s {}, ending {:+.1} s from each logged change; the steps' k and τ are fitted from each ramp's end, the level before it",
+            "load ramp ({}): {:.1} s {}, ending {:+.1} s from each logged change; the steps' k and τ are fitted from each ramp's end, the level before it",
+            if actuator { "an actuator's" } else { "weights lowered slowly by hand" },
             r.duration_s,
             if r.smooth { "S-curve" } else { "at a constant speed" },
             r.end_after_log_s
@@ -303,7 +305,8 @@ pub fn diagnose(paths: &[PathBuf], filter: bool, out: &Path, sensor: Option<&Pat
     // what to record next, for every finding whose name does not stand alone
     let mut d = d;
     if let (true, Some(report)) = (ambiguous, &report) {
-        (d.advice, d.advice_notes) = super::advice::advise(&d, report, &recs[0]);
+        let actuator = recs.iter().any(|r| !super::preprocess::by_hand(r, &opts.pre));
+        (d.advice, d.advice_notes) = super::advice::advise(&d, report, &recs[0], actuator);
     }
     // the calibrated twin: the fashion curves of the same analysis, the diagnosis's terms
     let twin = match (write_sensor, &report) {
