@@ -132,9 +132,9 @@ pub(super) const MIN_RAMP_GAIN: f64 = 0.02;
 /// 304 / 181 / 15 mV on 20 / 30 / 40 s holds against 1 mV of noise, and a false finding each time.)
 pub(super) const MIN_HAND_RAMP_GAIN: f64 = 0.5;
 
-/// An actuator's recordings (`--actuator`, or `loading=actuator` in their metadata): the load's
-/// ramp, fitted once per data set (issue 15, item 1). The actuator travels for seconds around the
-/// logged change; the baseline's first-order steps are driven by a ramp of each duration of
+/// The load's ramp, fitted once per data set (issue 15, item 1): an actuator's recordings
+/// (`--actuator`, or `loading=actuator` in their metadata), and loads placed by hand slowly enough
+/// that the steps at once fail. The actuator travels for seconds around the logged change; the baseline's first-order steps are driven by a ramp of each duration of
 /// [`RAMP_GRID_S`], at a constant speed and as an S-curve, ending at the logged change; for the
 /// best of them, when it already gains half of [`MIN_RAMP_GAIN`], the end is moved by ±0.5 and
 /// ±1 s. Each is scored by the baseline's own cross-validation (its held-out RMSE over the units).
