@@ -131,6 +131,10 @@ pub(super) const MIN_RAMP_GAIN: f64 = 0.02;
 /// sensor without effects, each weight lowered by hand over 2.5–7.5 s: the baseline's held-out RMSE
 /// 304 / 181 / 15 mV on 20 / 30 / 40 s holds against 1 mV of noise, and a false finding each time.)
 pub(super) const MIN_HAND_RAMP_GAIN: f64 = 0.5;
+/// Loads placed by hand: the ramps are tried only when the baseline at once predicts held-out data
+/// worse than this many times the noise (a filtered sample's σ, the trials' median): the search
+/// builds the baseline a dozen times, which tripled the CPU time of a diagnosis by hand.
+pub(super) const HAND_RAMP_AT: f64 = 3.0;
 
 /// The load's ramp, fitted once per data set (issue 15, item 1): an actuator's recordings
 /// (`--actuator`, or `loading=actuator` in their metadata), and loads placed by hand slowly enough
@@ -166,7 +170,19 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
         .into_iter()
         .flat_map(|smooth| RAMP_GRID_S.into_iter().filter(|&d| d <= 0.5 * shortest).map(move |d| Some(Ramp { duration_s: d, end_after_log_s: 0.0, smooth })))
         .collect();
-    let (at_once, mut best) = rayon::join(|| score(None), || best_of(grid));
+    let (at_once, mut best) = if actuator {
+        rayon::join(|| score(None), || best_of(grid))
+    } else {
+        // by hand, only a baseline at once that fails by HAND_RAMP_AT × the noise is worth the search
+        let Some(b) = build(recs, opts, None) else { return opts.clone() };
+        let mut sig: Vec<f64> = b.trials.iter().map(|t| t.sigma).collect();
+        sig.sort_by(f64::total_cmp);
+        let at_once = if b.base.heldout_rmse.is_finite() { b.base.heldout_rmse } else { f64::INFINITY };
+        if sig.is_empty() || at_once <= HAND_RAMP_AT * sig[sig.len() / 2] {
+            return opts.clone();
+        }
+        (at_once, best_of(grid))
+    };
     // the end refined only for a ramp that pays already at half the rule's gain
     if let (s0, Some(r0)) = best {
         if s0 >= (1.0 - 0.5 * least) * at_once {
