@@ -145,12 +145,14 @@ pub(super) const HAND_RAMP_AT: f64 = 3.0;
 /// ±1 s. Each is scored by the baseline's own cross-validation (its held-out RMSE over the units).
 /// A ramp that gains under [`MIN_RAMP_GAIN`] (loads placed by hand: [`MIN_HAND_RAMP_GAIN`]) keeps
 /// the step at once (when the step at once cannot be scored at all, any ramp that can is taken).
-pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
+/// Returns the options with the ramp, and the baseline at once when it was built and stays (so that
+/// the diagnosis does not build it again).
+pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> (Options, Option<Built>) {
     use rayon::prelude::*;
 
     let actuator = recs.iter().any(|r| !crate::sensor::preprocess::by_hand(r, &opts.pre));
     if opts.pre.ramp.is_some() {
-        return opts.clone();
+        return (opts.clone(), None);
     }
     let least = if actuator { MIN_RAMP_GAIN } else { MIN_HAND_RAMP_GAIN };
     let score = |r: Option<Ramp>| -> f64 {
@@ -171,23 +173,28 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
         .into_iter()
         .flat_map(|smooth| RAMP_GRID_S.into_iter().filter(|&d| d <= 0.5 * shortest).map(move |d| Some(Ramp { duration_s: d, end_after_log_s: 0.0, smooth })))
         .collect();
-    let (at_once, mut best) = if actuator {
-        rayon::join(|| score(None), || best_of(grid))
+    // the baseline at once, and its held-out RMSE (infinite when it cannot be scored)
+    let at_once_of = |b: Option<Built>| {
+        let s = b.as_ref().map(|b| b.base.heldout_rmse).filter(|s| s.is_finite()).unwrap_or(f64::INFINITY);
+        (s, b)
+    };
+    let ((at_once, built), mut best) = if actuator {
+        rayon::join(|| at_once_of(build(recs, opts, None)), || best_of(grid))
     } else {
         // by hand, only a baseline at once that fails by HAND_RAMP_AT × the noise is worth the search
-        let Some(b) = build(recs, opts, None) else { return opts.clone() };
+        let Some(b) = build(recs, opts, None) else { return (opts.clone(), None) };
         let mut sig: Vec<f64> = b.trials.iter().map(|t| t.sigma).collect();
         sig.sort_by(f64::total_cmp);
-        let at_once = if b.base.heldout_rmse.is_finite() { b.base.heldout_rmse } else { f64::INFINITY };
+        let (at_once, b) = at_once_of(Some(b));
         if sig.is_empty() || at_once <= HAND_RAMP_AT * sig[sig.len() / 2] {
-            return opts.clone();
+            return (opts.clone(), b);
         }
-        (at_once, best_of(grid))
+        ((at_once, b), best_of(grid))
     };
     // the end refined only for a ramp that pays already at half the rule's gain
     if let (s0, Some(r0)) = best {
         if s0 >= (1.0 - 0.5 * least) * at_once {
-            return opts.clone();
+            return (opts.clone(), built);
         }
         let (s, r) = best_of([-1.0, -0.5, 0.5, 1.0].into_iter().map(|e| Some(Ramp { end_after_log_s: e, ..r0 })).collect());
         if s < best.0 {
@@ -196,7 +203,8 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> Options {
     }
     let mut o = opts.clone();
     o.pre.ramp = best.1.filter(|_| best.0 < (1.0 - least) * at_once);
-    o
+    let built = if o.pre.ramp.is_none() { built } else { None };
+    (o, built)
 }
 
 /// The baseline as built and scored: the trials, the design, the levels the terms are built on,
@@ -357,6 +365,6 @@ mod tests {
         // the ramp search, run as for an actuator, keeps loads that land at once as they are
         let mut actuator = Options::default();
         actuator.pre.handling = false;
-        assert!(with_ramp(&recs, &actuator).pre.ramp.is_none());
+        assert!(with_ramp(&recs, &actuator).0.pre.ramp.is_none());
     }
 }

@@ -130,7 +130,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
 /// before each ramp and fit from its end.
 pub fn load_ramp(recs: &[Recording], opts: &Options) -> Option<super::preprocess::Ramp> {
     let lsq = Options { method: analyze::Method::Lsq, ..opts.clone() };
-    with_ramp(recs, &lsq).pre.ramp
+    with_ramp(recs, &lsq).0.pre.ramp
 }
 
 /// The estimation floor of the model's first-order part: [`diagnose`] with the final refit done
@@ -158,15 +158,15 @@ enum Outcome {
 /// data as given, and the windows are kept as located failures of the baseline, each saying why
 /// it was not excluded.
 fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool) -> Option<Diagnosis> {
-    let with_ramp = if sim.is_none() { with_ramp(recs, opts) } else { opts.clone() };
+    let (with_ramp, built) = if sim.is_none() { with_ramp(recs, opts) } else { (opts.clone(), None) };
     let opts = &with_ramp;
-    let (windows, before, after, unit) = match run(recs, opts, sim, refit_always)? {
+    let (windows, before, after, unit) = match run(recs, opts, sim, refit_always, built)? {
         Outcome::Done(d) => return Some(*d),
         Outcome::SpikesRejected { windows, before, after, unit } => (windows, before, after, unit),
     };
     let mut as_given = opts.clone();
     as_given.pre.handling = false;
-    let Outcome::Done(mut again) = run(recs, &as_given, sim, refit_always)? else { return None };
+    let Outcome::Done(mut again) = run(recs, &as_given, sim, refit_always, None)? else { return None };
     let why = format!(
         "short excursion at a step edge, not excluded as a handling spike: excluding the {} such window(s) raised the baseline's held-out RMSE {} → {} {unit}, so they are the model's misfit at the edges",
         windows.len(),
@@ -183,10 +183,13 @@ fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     Some(*again)
 }
 
-/// The diagnosis, stage by stage.
-fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool) -> Option<Outcome> {
+/// The diagnosis, stage by stage; `built` is the baseline when the ramp's search built it already.
+fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool, built: Option<Built>) -> Option<Outcome> {
     // 1. the baseline: the paper's model from part 1's step fits (or the simulator), held out
-    let b = baseline::build(recs, opts, sim)?;
+    let b = match built {
+        Some(b) => b,
+        None => baseline::build(recs, opts, sim)?,
+    };
     // 2. handling spikes are excluded only when that predicts held-out data better
     let (clean, xc) = if b.has_spikes { score(&b.d, &b.trials, &b.base_cfg, &b.hat)? } else { (b.base.clone(), b.xb.clone()) };
     if b.has_spikes && clean.heldout_rmse > b.base.heldout_rmse {

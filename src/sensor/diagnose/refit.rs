@@ -8,21 +8,23 @@ use super::*;
 /// what it explained. It leaves the model, its finding goes, and the rest is scored again on the
 /// selection's trials. (Family A, a 3 % second relaxation, `bench-advice` seeds 11 and 19: a
 /// hysteresis entered third at +0.8 % held out and refitted to −0.10 % / −0.14 %, so no twin could
-/// carry it and the advice was refused.) Returns the model, its solution and score, and a note per
-/// term left out.
+/// carry it and the advice was refused.) Returns the model, its solution and score, a note per
+/// term left out, and the returned model's refit with its onsets free when one was made (the final
+/// refit starts from it rather than making it again).
+#[allow(clippy::type_complexity)]
 pub(super) fn of_their_sign_refitted(
     d: &Design,
     trials: &[Trial],
     hat: &Hat,
     (cur, cur_x, cur_score): (Config, Vec<f64>, Score),
     findings: &mut Vec<Finding>,
-) -> (Config, Vec<f64>, Score, Vec<String>) {
+) -> (Config, Vec<f64>, Score, Vec<String>, Option<(Vec<Trial>, Vec<f64>)>) {
     let (mut cur, mut cur_x, mut cur_score) = (cur, cur_x, cur_score);
     let mut notes = Vec::new();
     let signed = |e: &Effect| matches!(e, Effect::Creep | Effect::Hysteresis);
     while !d.prior && cur.effects.iter().any(signed) {
-        let Some((_, x)) = refit_onsets(d, trials, &cur, hat) else { break };
-        let Some(idx) = cur.effects.iter().position(|&e| !of_its_sign(d, &cur, &x, e)) else { break };
+        let Some((g, x)) = refit_onsets(d, trials, &cur, hat) else { break };
+        let Some(idx) = cur.effects.iter().position(|&e| !of_its_sign(d, &cur, &x, e)) else { return (cur, cur_x, cur_score, notes, Some((g, x))) };
         let e = cur.effects[idx];
         let a = x[term_col(d, &cur, e)];
         let c = without(&cur, idx);
@@ -38,15 +40,17 @@ pub(super) fn of_their_sign_refitted(
         findings.retain(|f| f.effect != e.name());
         (cur, cur_x, cur_score) = (c, xs, s);
     }
-    (cur, cur_x, cur_score, notes)
+    (cur, cur_x, cur_score, notes, None)
 }
 
 /// When terms were chosen (or `refit_always`), the model is refitted with every step's onset free
 /// as well (part 1 fitted them with the first-order shape the terms change), and so is the
 /// baseline, on the data as given — the two keep the same freedom. During selection the onsets
 /// stay at their part-1 values: free there, they take up part of a term's shape. Without a term
-/// nothing is refitted (the baseline stands). Returns the model, its solution, the trials with the
-/// model's and the baseline's steps (at raw samples), and the baseline's solution.
+/// nothing is refitted (the baseline stands). `refitted` is the model's refit with its onsets free
+/// when the sign check made it already (`of_their_sign_refitted`). The baseline's refit runs beside
+/// the model's. Returns the model, its solution, the trials with the model's and the baseline's
+/// steps (at raw samples), and the baseline's solution.
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub(super) fn final_refit(
     d: &Design,
@@ -54,7 +58,7 @@ pub(super) fn final_refit(
     base_eval: Vec<Trial>,
     base_fit: &[Trial],
     (base_cfg, hat0, xb): (&Config, &Hat, Vec<f64>),
-    (cur, cur_x, hat): (Config, Vec<f64>, &Hat),
+    (cur, cur_x, hat, made): (Config, Vec<f64>, &Hat, Option<(Vec<Trial>, Vec<f64>)>),
     findings: &mut [Finding],
     refit_always: bool,
 ) -> (Config, Vec<f64>, Vec<Trial>, Vec<Trial>, Vec<f64>) {
@@ -67,23 +71,30 @@ pub(super) fn final_refit(
     let mut refitted: Option<Vec<Trial>> = None;
     let mut base_segs: Option<Vec<Trial>> = None;
     let (xb, cur_x) = if !d.prior && (!cur.effects.is_empty() || refit_always) {
-        let mut cur_r = refit_onsets(d, &trials, &cur, hat);
-        // τ2 and the first-order shape depend on each other: τ2 refined on the refitted shape,
-        // and the shape refitted with it
-        if cur.effects.contains(&Effect::SecondTimeConstant) {
-            if let Some((c, _, _)) = cur_r.as_ref().and_then(|(g, _)| refine_tau2(d, g, &cur, hat)) {
-                cur = c;
-                cur_r = refit_onsets(d, &trials, &cur, hat);
+        let model = |cur: &mut Config| {
+            let mut cur_r = match made {
+                Some(r) => Some(r),
+                None => refit_onsets(d, &trials, cur, hat),
+            };
+            // τ2 and the first-order shape depend on each other: τ2 refined on the refitted shape,
+            // and the shape refitted with it
+            if cur.effects.contains(&Effect::SecondTimeConstant) {
+                if let Some((c, _, _)) = cur_r.as_ref().and_then(|(g, _)| refine_tau2(d, g, cur, hat)) {
+                    *cur = c;
+                    cur_r = refit_onsets(d, &trials, cur, hat);
+                }
             }
-        }
-        // a hysteresis's memory, kept for good or fading, on the refitted shape
-        if cur.effects.contains(&Effect::Hysteresis) {
-            if let Some(c) = cur_r.as_ref().and_then(|(g, _)| refine_memory(d, g, &cur, hat)) {
-                cur = c;
-                cur_r = refit_onsets(d, &trials, &cur, hat);
+            // a hysteresis's memory, kept for good or fading, on the refitted shape
+            if cur.effects.contains(&Effect::Hysteresis) {
+                if let Some(c) = cur_r.as_ref().and_then(|(g, _)| refine_memory(d, g, cur, hat)) {
+                    *cur = c;
+                    cur_r = refit_onsets(d, &trials, cur, hat);
+                }
             }
-        }
-        match (refit_onsets(d, base_fit, base_cfg, hat0), cur_r) {
+            cur_r
+        };
+        let (base_r, cur_r) = rayon::join(|| refit_onsets(d, base_fit, base_cfg, hat0), || model(&mut cur));
+        match (base_r, cur_r) {
             (Some((gb, xb2)), Some((gc, xc2))) => {
                 base_segs = Some(gb);
                 refitted = Some(gc);

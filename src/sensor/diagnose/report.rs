@@ -297,9 +297,10 @@ pub(super) fn diagnosis(
     let Selected { cfg: cur, score: cur_score, x: cur_x, hat, mut findings, decisions, mut nuisances, exact: spectrum_exact } = ch;
     // a clip reported on its plateau alone is one whose samples pile up (`piled`), never a rail's
     findings.extend(reported_only(&trials, &cur, &cur_score, piled, &report, (&base, clean)));
-    let (cur, cur_x, cur_score, dropped) = refit::of_their_sign_refitted(&d, &trials, &hat, (cur, cur_x, cur_score), &mut findings);
+    let (cur, cur_x, cur_score, dropped, made) = refit::of_their_sign_refitted(&d, &trials, &hat, (cur, cur_x, cur_score), &mut findings);
     let unexplained = unexplained(&d, &trials, &cur_x, &cur, &hat, &report.unit);
-    let (cur, cur_x, final_trials, final_base, xb) = refit::final_refit(&d, trials, base_eval, &base_fit, (&base_cfg, &hat0, xb), (cur, cur_x, &hat), &mut findings, refit_always);
+    let (cur, cur_x, final_trials, final_base, xb) =
+        refit::final_refit(&d, trials, base_eval, &base_fit, (&base_cfg, &hat0, xb), (cur, cur_x, &hat, made), &mut findings, refit_always);
     let predictions = refit::predictions(recs, &d, &final_trials, &final_base, (&base_cfg, &hat0, &xb), (&cur, &hat, &cur_x), &findings);
     let by_unit = unit_errors(&final_base, &base, &cur_score);
     let (levels, taus) = if d.prior { (vec![], vec![]) } else { first_order_part(&d, &cur, &cur_x, &final_trials) };
