@@ -182,7 +182,7 @@ mod tests {
         let (base_cfg, hat0, xb) = (b.base_cfg.clone(), b.hat.clone(), b.xb.clone());
         let mut findings = vec![];
         let (cur, cur_x, trials, base_trials, xb) =
-            final_refit(&b.d, b.trials.clone(), b.base_eval.clone(), &b.base_fit, (&base_cfg, &hat0, xb), (base_cfg.clone(), b.xb.clone(), &hat0), &mut findings, true);
+            final_refit(&b.d, b.trials.clone(), b.base_eval.clone(), &b.base_fit, (&base_cfg, &hat0, xb), (base_cfg.clone(), b.xb.clone(), &hat0, None), &mut findings, true);
         for (tr, tt) in trials.iter().zip(&truth) {
             for (sg, st) in tr.segs.iter().zip(&tt.steps) {
                 assert!((sg.t0 - st.t_land_s).abs() < 0.03, "onset {} vs landing {}", sg.t0, st.t_land_s);
