@@ -117,6 +117,14 @@ fn run_with_floor(s: &SensorParams, s0: &SensorParams, p: &ProtocolParams, seed:
 fn run(s: &SensorParams, p: &ProtocolParams, seed: u64) -> Outcome {
     let sims: Vec<_> = (0..3).map(|k| simulate(s, p, 20.0, None, seed + k)).collect();
     let recs: Vec<_> = sims.iter().map(|x| x.0.clone()).collect();
+    // TIPFORGE_DISCOVERY_DUMP=DIR: each case's trials written as DIR/SEED-1.csv … (to diagnose one
+    // with the CLI)
+    if let Ok(dir) = std::env::var("TIPFORGE_DISCOVERY_DUMP") {
+        std::fs::create_dir_all(&dir).unwrap();
+        for (k, r) in recs.iter().enumerate() {
+            std::fs::write(format!("{dir}/{seed}-{}.csv", k + 1), tipforge::sensor::sim::to_csv(r, &format!("discovery bench, seed {}", seed + k as u64))).unwrap();
+        }
+    }
     // a touch of seconds without a press is an actuator's travel: diagnosed as `--actuator`
     let mut opts = tipforge::sensor::analyze::Options::default();
     opts.pre.handling = !(p.touch_s >= 3.0 && p.press_fraction == 0.0);
