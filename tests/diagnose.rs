@@ -797,3 +797,27 @@ fn a_rail_before_the_noise_is_found_under_the_trials_gains() {
         assert!(d.findings.iter().any(|f| f.effect == "saturation"), "seed {seed}: {:?} {:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>(), d.decisions);
     }
 }
+
+/// Samples at the ADC's floor (issue 15's FSR402 on an Arduino reads 0 counts at rest): with no
+/// preload the zero-load level sits on 0 V, the simulator's ADC cannot read below it, and the
+/// samples left above it put the level about 0.4 σ too high. Every step to or from zero load then
+/// misfitted, and a drift or a creep took up the misfit: on family A's advice bench (no preload,
+/// 40 cases) stop 39 named 21 false findings and missed 4 truths, among them this 0.4 %
+/// hysteresis (named a drift) and this 1e-5 V/s drift (named creep). With the floor's samples
+/// replaced by their expected value below it, both are named, and the diagnosis says why.
+#[test]
+fn samples_at_the_adc_floor_make_no_false_drift() {
+    let cases: [(&str, &dyn Fn(&mut SensorParams)); 2] = [("hysteresis", &|s| s.effects.hysteresis = 0.004), ("baseline_drift", &|s| s.effects.drift_v_per_s = 1e-5)];
+    for (want, f) in cases {
+        let mut s = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
+        f(&mut s);
+        let p = ProtocolParams::from_source(&load("params/protocol-1000g.toml")).unwrap();
+        let recs: Vec<_> = (0..3).map(|k| simulate(&s, &p, 0.0, None, 11 + k).0).collect();
+        assert!(recs.iter().all(|r| r.response.iter().filter(|&&v| v == 0.0).count() > 100), "the zero-load level is read at the floor");
+        let d = diagnose(&recs, &Default::default()).unwrap();
+        let named: Vec<_> = d.findings.iter().map(|f| (f.effect, f.alternatives.iter().map(|a| a.effect).collect::<Vec<_>>())).collect();
+        assert!(named.iter().any(|(e, alts)| *e == want || alts.contains(&want)), "{want}: {named:?}");
+        assert!(named.iter().all(|(e, alts)| *e == want || alts.contains(&want)), "{want}: a false finding in {named:?}");
+        assert!(d.notes.iter().filter(|n| n.contains("the ADC's floor")).count() == 3, "{:?}", d.notes);
+    }
+}

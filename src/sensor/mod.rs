@@ -3,6 +3,7 @@
 pub mod advice;
 pub mod analyze;
 pub mod catalogue;
+pub mod censored;
 pub mod cli;
 pub mod csv_source;
 pub mod decimate;

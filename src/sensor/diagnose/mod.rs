@@ -109,6 +109,26 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
 /// simulator (a wrong preload changes every level and time constant, and would otherwise be
 /// taken for other effects).
 pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Diagnosis> {
+    let (recs, floor_notes) = floor_replaced(recs);
+    let mut d = diagnose_read(&recs, opts, sim)?;
+    d.notes.splice(0..0, floor_notes);
+    Some(d)
+}
+
+/// The recordings with their samples at an ADC's floor (0 V) replaced by their expected values below
+/// it (`censored`), and a note for each recording that had them.
+fn floor_replaced(recs: &[Recording]) -> (std::borrow::Cow<'_, [Recording]>, Vec<String>) {
+    let fixed: Vec<Option<(Recording, super::censored::Censored)>> = recs.iter().map(super::censored::uncensored).collect();
+    if fixed.iter().all(Option::is_none) {
+        return (std::borrow::Cow::Borrowed(recs), vec![]);
+    }
+    let notes = recs.iter().zip(&fixed).filter_map(|(r, f)| f.as_ref().map(|(_, c)| super::censored::note(&r.source, c, r.len()))).collect();
+    let recs = recs.iter().zip(fixed).map(|(r, f)| f.map(|(x, _)| x).unwrap_or_else(|| r.clone())).collect();
+    (std::borrow::Cow::Owned(recs), notes)
+}
+
+/// [`diagnose_with`] on recordings whose floor is taken care of.
+fn diagnose_read(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Diagnosis> {
     let Some(sb) = sim else { return run_spike_checked(recs, opts, None, false) };
     let Some((given, best, best_score)) = preload_search(recs, opts, sb) else { return run_spike_checked(recs, opts, sim, false) };
     let gain = (given.heldout_rmse - best_score.heldout_rmse) / given.heldout_rmse.max(1e-300);
@@ -130,7 +150,7 @@ pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
 /// before each ramp and fit from its end.
 pub fn load_ramp(recs: &[Recording], opts: &Options) -> Option<super::preprocess::Ramp> {
     let lsq = Options { method: analyze::Method::Lsq, ..opts.clone() };
-    with_ramp(recs, &lsq).0.pre.ramp
+    with_ramp(&floor_replaced(recs).0, &lsq).0.pre.ramp
 }
 
 /// The estimation floor of the model's first-order part: [`diagnose`] with the final refit done
@@ -139,7 +159,7 @@ pub fn load_ramp(recs: &[Recording], opts: &Options) -> Option<super::preprocess
 /// is the least error any model with the baseline's freedom (levels, time constants, onsets) plus
 /// terms can be expected to reach (the discovery benchmark's floor column).
 pub fn refitted_baseline(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
-    run_spike_checked(recs, opts, None, true)
+    run_spike_checked(&floor_replaced(recs).0, opts, None, true)
 }
 
 /// What one pass of the diagnosis gives: the diagnosis, or the finding that the handling spikes it

@@ -1,0 +1,183 @@
+//! Samples censored at an ADC's floor. A divider read at no load sits near 0 V; the ADC cannot read
+//! below 0, so every sample whose noise would take it under the floor reads exactly 0 (a real
+//! Interlink FSR402 on an Arduino reads 0 counts at rest). The samples that remain above are the
+//! upper half of the noise: a zero-load level fitted to them by least squares sits about 0.4 σ
+//! above the truth, and every step to or from zero load then misfits (on family A's advice bench,
+//! no preload, a 0.2 % conductance creep lost to a warm-up drift that took up that misfit).
+//!
+//! Where the samples pile up at exactly 0 V, each second's level is fitted as a censored normal
+//! (Tobit: the samples above the floor by their density, the count at the floor by the probability
+//! of reading under it, σ from the recording's noise above the floor), and each sample at the floor
+//! is replaced by its expected value given that it lies below: μ − σ·φ(α)/Φ(α), α = (0 − μ)/σ. The
+//! second's mean is then its fitted level. Seconds with fewer than [`MIN_ABOVE`] samples above the
+//! floor say nothing about how far below it the level lies; their samples stay as read.
+
+use super::preprocess::median;
+use super::recording::Recording;
+
+/// A pile at the floor has at least this many samples…
+pub const MIN_PILE: usize = 20;
+/// …and at least this many times as many as the next value above it (an ADC step: a normal's tail
+/// puts fewer samples on its lowest value than on the next; a floor puts the whole tail on it).
+pub const PILE_OVER_NEXT: f64 = 2.0;
+/// The span (s) over which a level is fitted, at least [`MIN_BLOCK`] samples.
+pub const BLOCK_S: f64 = 1.0;
+const MIN_BLOCK: usize = 20;
+/// A block's level is fitted only with at least this many samples above the floor.
+pub const MIN_ABOVE: usize = 3;
+
+/// What was done to one recording's samples at the floor.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Censored {
+    /// Samples that read exactly the floor.
+    pub at_floor: usize,
+    /// Of those, replaced by their expected value below it.
+    pub replaced: usize,
+    /// The noise σ (V) the levels were fitted with.
+    pub sigma_v: f64,
+}
+
+/// The recording with its samples at the ADC's floor (0 V) replaced by their expected values below
+/// it, when they pile up there (None otherwise: another unit, a reading below 0, or no pile).
+pub fn uncensored(rec: &Recording) -> Option<(Recording, Censored)> {
+    if rec.unit != "V" || rec.response.iter().any(|&v| v < 0.0) {
+        return None;
+    }
+    let at_floor = rec.response.iter().filter(|&&v| v == 0.0).count();
+    let next = rec.response.iter().copied().filter(|&v| v > 0.0).fold(f64::INFINITY, f64::min);
+    let at_next = rec.response.iter().filter(|&&v| v == next).count();
+    if at_floor < MIN_PILE || (at_floor as f64) < PILE_OVER_NEXT * at_next as f64 {
+        return None;
+    }
+    let sigma = sigma_above(&rec.response)?;
+    let dt = super::fit::uniform(&rec.time_s).unwrap_or(BLOCK_S / MIN_BLOCK as f64);
+    let block = ((BLOCK_S / dt).round() as usize).max(MIN_BLOCK);
+    let mut out = rec.clone();
+    let mut replaced = 0;
+    for chunk in out.response.chunks_mut(block) {
+        let above: Vec<f64> = chunk.iter().copied().filter(|&v| v > 0.0).collect();
+        let below = chunk.len() - above.len();
+        if below == 0 || above.len() < MIN_ABOVE {
+            continue;
+        }
+        let mu = tobit_level(&above, below, sigma);
+        let alpha = -mu / sigma;
+        let expected = mu - sigma * mills(alpha);
+        for v in chunk.iter_mut().filter(|v| **v == 0.0) {
+            *v = expected;
+        }
+        replaced += below;
+    }
+    Some((out, Censored { at_floor, replaced, sigma_v: sigma }))
+}
+
+/// The note a report gives for one recording's censored samples.
+pub fn note(source: &str, c: &Censored, samples: usize) -> String {
+    format!(
+        "{source}: {} of {samples} samples read exactly 0 V, the ADC's floor (the noise under it is cut off, so the samples above it alone put a level near zero too high): {} of them, in the seconds that also hold samples above the floor, were replaced by their expected value below it (each second's level fitted as a normal censored at 0 V, σ {:.3e} V); the rest stay as read",
+        c.at_floor, c.replaced, c.sigma_v
+    )
+}
+
+/// The noise σ from first differences (robust: the median absolute deviation) of samples both above
+/// the floor, and then of samples both over 5 of those σ above it (next to the floor the noise is
+/// cut, and its spread with it), when there are enough; None when there are too few at all.
+fn sigma_above(v: &[f64]) -> Option<f64> {
+    let of = |over: f64| -> Option<f64> {
+        let mut d: Vec<f64> = v.windows(2).filter(|w| w[0] > over && w[1] > over).map(|w| w[1] - w[0]).collect();
+        if d.len() < MIN_PILE {
+            return None;
+        }
+        let m = median(&mut d);
+        for x in d.iter_mut() {
+            *x = (*x - m).abs();
+        }
+        let s = 1.4826 * median(&mut d) / std::f64::consts::SQRT_2;
+        (s > 0.0 && s.is_finite()).then_some(s)
+    };
+    let near = of(0.0)?;
+    Some(of(5.0 * near).unwrap_or(near))
+}
+
+/// φ(a)/Φ(a): the standard normal's density over its distribution function (the inverse Mills
+/// ratio), through erfc so that it stays exact in the far tails.
+fn mills(a: f64) -> f64 {
+    let pdf = (-0.5 * a * a).exp() / (2.0 * std::f64::consts::PI).sqrt();
+    let cdf = 0.5 * libm::erfc(-a / std::f64::consts::SQRT_2);
+    if cdf > 1e-300 {
+        pdf / cdf
+    } else {
+        // far in the lower tail φ/Φ → −a
+        -a
+    }
+}
+
+/// The maximum-likelihood level μ of samples `above` the floor (0) and `below` samples at it, from
+/// a normal of known σ censored at 0: the root of Σ(u − μ)/σ² − below·φ(α)/(σΦ(α)), α = −μ/σ,
+/// which falls as μ rises (by bisection).
+fn tobit_level(above: &[f64], below: usize, sigma: f64) -> f64 {
+    let score = |mu: f64| above.iter().map(|u| u - mu).sum::<f64>() / (sigma * sigma) - below as f64 * mills(-mu / sigma) / sigma;
+    let top = above.iter().copied().fold(0.0, f64::max);
+    let (mut lo, mut hi) = (-10.0 * sigma, top.max(sigma));
+    // widen downwards until the score changes sign (a level far under the floor)
+    while score(lo) < 0.0 && lo > -1e3 * sigma {
+        lo *= 2.0;
+    }
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if score(mid) > 0.0 {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A level of 0.2 σ under noise σ, read by an ADC that cannot go below 0, and a loaded hold at
+    /// 1 V: the samples above the floor alone put the level at about 0.5 σ; with the ones at the
+    /// floor replaced, its mean is back within a tenth of σ, and the hold is as read. A recording
+    /// at 1 V all through is not touched, nor one that reads below 0.
+    #[test]
+    fn a_level_read_at_the_floor_is_recovered() {
+        let sigma = 3e-3;
+        let n = 6000;
+        // a deterministic normal sample (Box–Muller on a fixed sequence)
+        let mut state = 12345u64;
+        let mut unif = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let noise: Vec<f64> = (0..n).map(|_| (-2.0 * unif().ln()).sqrt() * (2.0 * std::f64::consts::PI * unif()).cos()).collect();
+        let truth = 0.2 * sigma;
+        let level = |i: usize| if i < n / 2 { truth } else { 1.0 };
+        let read: Vec<f64> = noise.iter().enumerate().map(|(i, e)| (level(i) + sigma * e).max(0.0)).collect();
+        let rec = Recording {
+            source: "t.csv".into(),
+            meta: Default::default(),
+            time_s: (0..n).map(|i| i as f64 * 0.01).collect(),
+            response: read.clone(),
+            unit: "V",
+            response_column: "voltage_v",
+            protocol: vec![0.0; n],
+            protocol_kind: super::super::recording::ProtocolKind::LoadG,
+            ignored_columns: vec![],
+            raw: None,
+        };
+        let mean = |v: &[f64]| v[..n / 2].iter().sum::<f64>() / (n / 2) as f64;
+        assert!(mean(&read) - truth > 0.25 * sigma, "as read: {}", (mean(&read) - truth) / sigma);
+        let (fixed, c) = uncensored(&rec).expect("a pile at the floor");
+        assert!((c.sigma_v / sigma - 1.0).abs() < 0.1, "σ {}", c.sigma_v);
+        assert!(c.replaced > n / 6 && c.replaced <= c.at_floor, "{c:?}");
+        assert!((mean(&fixed.response) - truth).abs() < 0.1 * sigma, "replaced: {}", (mean(&fixed.response) - truth) / sigma);
+        assert_eq!(fixed.response[n / 2..], read[n / 2..]);
+        let high = Recording { response: noise.iter().map(|e| 1.0 + sigma * e).collect(), ..rec.clone() };
+        assert!(uncensored(&high).is_none());
+        let negative = Recording { response: noise.iter().map(|e| truth + sigma * e).collect(), ..rec };
+        assert!(uncensored(&negative).is_none());
+    }
+}
