@@ -1,8 +1,10 @@
-//! Issue 16, item 2: advice computed, not canned. A slow linear drift on the paper's 0–1000 g
-//! protocol (three trials) is named, but a hysteresis term explains the same residual about as well
-//! on it: the diagnosis proposes the recording that separates the two, with both names simulated
-//! by the recording's twin. Recording the same sensor that way names the drift alone. A recording
-//! with nothing ambiguous gets no advice.
+//! Issue 16, item 2: advice computed, not canned. A slow linear drift (1e-5 V/s) on the paper's
+//! 0–1000 g protocol (three trials) is named, but a creep term explains the same residual about as
+//! well on it: the diagnosis proposes the recording that separates the two, with both names
+//! simulated by the recording's twin. Recording the same sensor that way names the drift alone. A
+//! recording with nothing ambiguous gets no advice. (Until stop 40 the case was a 3e-5 V/s drift
+//! ambiguous with hysteresis; with the samples at the ADC's floor taken care of, that one is named
+//! alone.)
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -48,16 +50,16 @@ fn simulate_and_diagnose(d: &Path, stem: &str, edit: (&str, &str), protocol: &Pa
 fn an_ambiguous_name_gets_the_recording_that_separates_it_and_that_recording_does() {
     let root = std::env::current_dir().unwrap();
     let d = dir("drift");
-    let drift = ("rate_v_per_s = 0.0 ", "rate_v_per_s = 0.00003 ");
+    let drift = ("rate_v_per_s = 0.0 ", "rate_v_per_s = 0.00001 ");
     let diag = simulate_and_diagnose(&d, "rec", drift, &root.join("params/protocol-1000g.toml"), 3);
     let drift_finding = diag["findings"].as_array().unwrap().iter().position(|f| f["effect"] == "baseline_drift").expect("the drift is found");
     let f = &diag["findings"][drift_finding];
     let alts: Vec<&str> = f["alternatives"].as_array().unwrap().iter().map(|a| a["effect"].as_str().unwrap()).collect();
-    assert!(alts.contains(&"hysteresis"), "the case is ambiguous: {alts:?}");
+    assert!(alts.contains(&"creep"), "the case is ambiguous: {alts:?}");
     // the advice for it: both names simulated on every candidate change
     let advice = diag["advice"].as_array().unwrap();
     let a = advice.iter().find(|a| a["finding"] == drift_finding).expect("advice for the ambiguous finding");
-    assert_eq!(a["alternative"], "hysteresis");
+    assert_eq!(a["alternative"], "creep");
     let cands = a["candidates"].as_array().unwrap();
     assert!(cands.len() >= 5, "{cands:?}");
     let z = a["separation_sigma"].as_f64().unwrap();
@@ -76,7 +78,7 @@ fn an_ambiguous_name_gets_the_recording_that_separates_it_and_that_recording_doe
     let named: Vec<(&str, usize)> =
         again["findings"].as_array().unwrap().iter().map(|f| (f["effect"].as_str().unwrap(), f["alternatives"].as_array().map(|a| a.len()).unwrap_or(0))).collect();
     assert!(named.contains(&("baseline_drift", 0)), "{named:?}");
-    assert!(!named.iter().any(|(e, _)| *e == "hysteresis"), "{named:?}");
+    assert!(!named.iter().any(|(e, _)| *e == "creep" || *e == "hysteresis"), "{named:?}");
 }
 
 #[test]
