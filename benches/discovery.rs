@@ -61,12 +61,21 @@ fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
     (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
 }
 
+thread_local! {
+    /// The rig's preload (g) the cases are simulated with: 20 g, or none on the "no preload" row.
+    static PRELOAD_G: std::cell::Cell<f64> = const { std::cell::Cell::new(20.0) };
+}
+
+fn preload_g() -> f64 {
+    PRELOAD_G.with(|p| p.get())
+}
+
 /// Effect RMS of the noise-free signal at magnitude m.
 fn effect_rms(s0: &SensorParams, p: &ProtocolParams, e: E, m: f64, top: f64) -> f64 {
     let mut s = s0.clone();
     e.set(&mut s, m, top);
-    let (_, a) = simulate(s0, p, 20.0, None, 1);
-    let (_, b) = simulate(&s, p, 20.0, None, 1);
+    let (_, a) = simulate(s0, p, preload_g(), None, 1);
+    let (_, b) = simulate(&s, p, preload_g(), None, 1);
     rms_diff(&a.clean_v, &b.clean_v)
 }
 
@@ -101,7 +110,7 @@ fn sq_err(pred: &[f64], truth: &[f64]) -> f64 {
 /// the baseline's freedom can be expected to reach.
 fn run_with_floor(s: &SensorParams, s0: &SensorParams, p: &ProtocolParams, seed: u64) -> Outcome {
     let mut o = run(s, p, seed);
-    let sims: Vec<_> = (0..3).map(|k| simulate(s0, p, 20.0, None, seed + k)).collect();
+    let sims: Vec<_> = (0..3).map(|k| simulate(s0, p, preload_g(), None, seed + k)).collect();
     let recs: Vec<_> = sims.iter().map(|x| x.0.clone()).collect();
     let d = refitted_baseline(&recs, &Default::default()).expect("diagnosis");
     let ef: f64 = d.predictions.iter().zip(&sims).map(|(pr, (_, truth))| sq_err(&pr.baseline, &truth.clean_v)).sum();
@@ -115,7 +124,7 @@ fn run_with_floor(s: &SensorParams, s0: &SensorParams, p: &ProtocolParams, seed:
 }
 
 fn run(s: &SensorParams, p: &ProtocolParams, seed: u64) -> Outcome {
-    let sims: Vec<_> = (0..3).map(|k| simulate(s, p, 20.0, None, seed + k)).collect();
+    let sims: Vec<_> = (0..3).map(|k| simulate(s, p, preload_g(), None, seed + k)).collect();
     let recs: Vec<_> = sims.iter().map(|x| x.0.clone()).collect();
     // TIPFORGE_DISCOVERY_DUMP=DIR: each case's trials written as DIR/SEED-1.csv … (to diagnose one
     // with the CLI)
@@ -133,7 +142,7 @@ fn run(s: &SensorParams, p: &ProtocolParams, seed: u64) -> Outcome {
     // placing weights by hand, not sensor physics); the same seeds, so everything else is equal
     let mut s_true = s.clone();
     s_true.effects.spike_v = 0.0;
-    let truths: Vec<_> = (0..3).map(|k| simulate(&s_true, p, 20.0, None, seed + k)).collect();
+    let truths: Vec<_> = (0..3).map(|k| simulate(&s_true, p, preload_g(), None, seed + k)).collect();
     let (mut eb, mut ei) = (0.0, 0.0);
     for (pr, (_, truth)) in d.predictions.iter().zip(&truths) {
         eb += sq_err(&pr.baseline, &truth.clean_v);
@@ -142,6 +151,9 @@ fn run(s: &SensorParams, p: &ProtocolParams, seed: u64) -> Outcome {
     // `floor` holds the baseline's squared error until run_with_floor divides by it
     Outcome { found: d.findings.iter().map(|f| f.effect.to_string()).collect(), ratio: (ei / eb.max(1e-300)).sqrt(), floor: eb }
 }
+
+/// The variation without a preload.
+const NO_PRELOAD: &str = "no preload: the zero-load level at the ADC's floor (0 V)";
 
 fn main() {
     let s0 = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
@@ -355,6 +367,9 @@ fn main() {
                 p.top_hold_s = 40.0
             }),
         ),
+        // no preload (stop 40): the zero-load level sits on 0 V, where the ADC cannot read below it,
+        // so the noise there is cut off (as a real FSR402 on an Arduino reads 0 counts at rest)
+        (NO_PRELOAD, Box::new(|_, _| {})),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {
@@ -367,7 +382,8 @@ fn main() {
         }
         let (mut sv, mut pv) = (s0.clone(), p0.clone());
         f(&mut sv, &mut pv);
-        let topv = sv.v_eq((pv.weights_g.iter().sum::<f64>() + 20.0) / 1000.0 * 9.80665);
+        PRELOAD_G.with(|p| p.set(if label == NO_PRELOAD { 0.0 } else { 20.0 }));
+        let topv = sv.v_eq((pv.weights_g.iter().sum::<f64>() + preload_g()) / 1000.0 * 9.80665);
         let mut cells = Vec::new();
         for &e in &effects {
             // an actuator places nothing by hand: no handling spikes to find (`--actuator`)

@@ -338,7 +338,11 @@ fn diagnose_one(s: &SensorParams, proto: &ProtocolParams, seed: u64) -> (tipforg
 /// recovery. The load lands within a sample and the rubber creeps (about 9 % of the resistance over
 /// the hold). `fit` says the loading step's τ describes creep; `diagnose` scores the single
 /// recording inside its holds (forward in time), models the landing as a jump, names creep and is
-/// at least 30 % better held out; without the creep it finds nothing. Seeds not looked at before.
+/// at least 25 % better held out; without the creep it finds nothing. Seeds not looked at before.
+/// (The bar was 30 % until stop 40. A third of the samples, at rest, read the ADC's floor, 0 V;
+/// they are now replaced by their expected value below it and carry the noise the floor cut off.
+/// The held-out mean square falls by as much as before, 91 mV² on seed 90 001, but from a higher
+/// start: 31 % became 27 %.)
 #[test]
 fn fsr402_like_single_step_names_creep_and_nothing_without_it() {
     let (proto, with) = fsr402();
@@ -353,8 +357,8 @@ fn fsr402_like_single_step_names_creep_and_nothing_without_it() {
         let d = diagnose(std::slice::from_ref(&rec), &Default::default()).unwrap();
         let names: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
         assert_eq!(names, vec!["creep"], "seed {seed}: {:?}", d.decisions);
-        assert!(d.final_.heldout_rmse <= 0.7 * d.baseline.heldout_rmse, "seed {seed}: {} -> {}", d.baseline.heldout_rmse, d.final_.heldout_rmse);
-        assert!(!d.notes.is_empty(), "seed {seed}: diagnosis.json carries the creep-dominated note");
+        assert!(d.final_.heldout_rmse <= 0.75 * d.baseline.heldout_rmse, "seed {seed}: {} -> {}", d.baseline.heldout_rmse, d.final_.heldout_rmse);
+        assert!(d.notes.iter().any(|n| n.contains("describes the slow creep")), "seed {seed}: diagnosis.json carries the creep-dominated note: {:?}", d.notes);
         let (rec0, _) = simulate(&without, &proto, 0.0, None, seed);
         let d0 = diagnose(std::slice::from_ref(&rec0), &Default::default()).unwrap();
         assert!(d0.findings.is_empty(), "seed {seed}: {:?}", d0.findings.iter().map(|f| f.effect).collect::<Vec<_>>());
@@ -430,10 +434,11 @@ fn a_second_relaxation_after_a_jump_is_sought_on_the_holds_scale() {
 
 /// Issue 16, item 1 (honest naming): a name stands alone when the drop-one test is decisive. The
 /// effects of the tuning family at 1σ each stand alone (no alternatives: the rule is not so loose
-/// that every finding gets one). At zero preload a 2 % hysteresis brings a weak extra slow
-/// relaxation (a second time constant, with a superposed creep beside the drift among its
-/// alternatives) whose residual a drift explains about as well: it carries the alternative, with a
-/// paired z under Z_SEPARATE, is not of high confidence, and its sentence says so.
+/// that every finding gets one), and so does a 2 % hysteresis at zero preload (until stop 40 it
+/// brought a weak extra slow relaxation there, the zero-load level's misfit where the ADC's floor
+/// cut the noise off). A 1e-5 V/s drift at zero preload leaves a residual a creep or a hysteresis
+/// explains about as well: it carries them as alternatives, each with a paired z under
+/// Z_SEPARATE, is not of high confidence, and its sentence says so.
 #[test]
 fn a_name_stands_alone_only_when_the_data_separate_it() {
     use tipforge::sensor::diagnose::Z_SEPARATE;
@@ -448,24 +453,26 @@ fn a_name_stands_alone_only_when_the_data_separate_it() {
         assert_eq!(d.findings.first().map(|f| f.effect), Some(name));
         assert!(d.findings.iter().all(|f| f.alternatives.is_empty() && f.ambiguity.is_none()), "{name}: {:?}", d.findings);
     }
-    let mut s = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
-    s.effects.hysteresis = 0.02;
-    let p = ProtocolParams::from_source(&load("params/protocol-1000g.toml")).unwrap();
-    let recs: Vec<_> = (7..10).map(|k| simulate(&s, &p, 0.0, None, k).0).collect();
-    let d = diagnose(&recs, &Default::default()).unwrap();
-    let h = d.findings.iter().find(|f| f.effect == "hysteresis").expect("hysteresis named");
-    assert!(h.alternatives.is_empty(), "{:?}", h.alternatives);
-    let f = d
-        .findings
-        .iter()
-        .find(|f| f.effect != "hysteresis")
-        .unwrap_or_else(|| panic!("the weak extra relaxation: {:?}", d.findings.iter().map(|f| (f.effect, &f.alternatives)).collect::<Vec<_>>()));
-    let drift = f.alternatives.iter().find(|a| a.effect == "baseline_drift").unwrap_or_else(|| panic!("no drift alternative: {:?}", f.alternatives));
+    let at_zero = |f: &dyn Fn(&mut SensorParams), seeds: std::ops::Range<u64>| {
+        let mut s = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
+        f(&mut s);
+        let p = ProtocolParams::from_source(&load("params/protocol-1000g.toml")).unwrap();
+        let recs: Vec<_> = seeds.map(|k| simulate(&s, &p, 0.0, None, k).0).collect();
+        diagnose(&recs, &Default::default()).unwrap()
+    };
+    let d = at_zero(&|s| s.effects.hysteresis = 0.02, 7..10);
+    let named: Vec<_> = d.findings.iter().map(|f| (f.effect, f.alternatives.len())).collect();
+    assert_eq!(named, vec![("hysteresis", 0)]);
+    let d = at_zero(&|s| s.effects.drift_v_per_s = 1e-5, 3..6);
+    let f = d.findings.iter().find(|f| f.effect == "baseline_drift").expect("the drift is named");
     assert_ne!(f.confidence, "high");
-    // the drift in its place predicts about as well: within the separation and within 10 %
-    assert!(drift.z_named_over_this.abs() < Z_SEPARATE && (drift.heldout_rmse / f.heldout_rmse_after - 1.0).abs() < 0.10, "{drift:?} vs {}", f.heldout_rmse_after);
+    for alt in ["creep", "hysteresis"] {
+        let a = f.alternatives.iter().find(|a| a.effect == alt).unwrap_or_else(|| panic!("no {alt} alternative: {:?}", f.alternatives));
+        // in the drift's place it predicts about as well: within the separation and within 10 %
+        assert!(a.z_named_over_this.abs() < Z_SEPARATE && (a.heldout_rmse / f.heldout_rmse_after - 1.0).abs() < 0.10, "{a:?} vs {}", f.heldout_rmse_after);
+    }
     let s = f.ambiguity.as_deref().unwrap();
-    assert!(s.starts_with(f.effect) && s.contains("baseline_drift: this recording cannot tell them apart"), "{s}");
+    assert!(s.starts_with("baseline_drift, creep or hysteresis: this recording cannot tell them apart"), "{s}");
 }
 
 /// Issue 16, item 5: a resistance recording without divider metadata (clean simulated data, the
