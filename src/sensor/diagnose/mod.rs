@@ -11,7 +11,9 @@
 //! one step out or forecast the later blocks of each hold) with a paired z of at least `MIN_Z`
 //! over units, and BIC by at least `MIN_DBIC`.
 //!
-//! The pipeline (`run`), one stage per file:
+//! The pipeline (`run`), one stage per file, on recordings whose samples piled at an ADC's floor
+//! (0 V) were first replaced by their expected value below it (`diagnose_with`, through
+//! `sensor::censored`):
 //! 1. `baseline` — an actuator's load ramp chosen once per data set by the baseline's own
 //!    cross-validation (`with_ramp`; the ramp's response and each step's own ramp are `input`'s);
 //!    part 1's step fits as trials (`trials_from`, the types in `model`); the paper's model fitted

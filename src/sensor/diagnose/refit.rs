@@ -47,7 +47,7 @@ pub(super) fn of_their_sign_refitted(
 /// as well (part 1 fitted them with the first-order shape the terms change), and so is the
 /// baseline, on the data as given — the two keep the same freedom. During selection the onsets
 /// stay at their part-1 values: free there, they take up part of a term's shape. Without a term
-/// nothing is refitted (the baseline stands). `refitted` is the model's refit with its onsets free
+/// nothing is refitted (the baseline stands). `made` is the model's refit with its onsets free
 /// when the sign check made it already (`of_their_sign_refitted`). The baseline's refit runs beside
 /// the model's. Returns the model, its solution, the trials with the model's and the baseline's
 /// steps (at raw samples), and the baseline's solution.
