@@ -826,5 +826,9 @@ fn samples_at_the_adc_floor_make_no_false_drift() {
         assert!(named.iter().any(|(e, alts)| *e == want || alts.contains(&want)), "{want}: {named:?}");
         assert!(named.iter().all(|(e, alts)| *e == want || alts.contains(&want)), "{want}: a false finding in {named:?}");
         assert!(d.notes.iter().filter(|n| n.contains("the ADC's floor")).count() == 3, "{:?}", d.notes);
+        // the predictions' measured column is the recording as read
+        for (p, r) in d.predictions.iter().zip(&recs) {
+            assert_eq!(p.measured, r.response.iter().step_by(p.stride).copied().collect::<Vec<_>>());
+        }
     }
 }

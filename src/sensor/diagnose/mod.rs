@@ -111,8 +111,14 @@ pub fn diagnose(recs: &[Recording], opts: &Options) -> Option<Diagnosis> {
 /// simulator (a wrong preload changes every level and time constant, and would otherwise be
 /// taken for other effects).
 pub fn diagnose_with(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>) -> Option<Diagnosis> {
-    let (recs, floor_notes) = floor_replaced(recs);
-    let mut d = diagnose_read(&recs, opts, sim)?;
+    let (read, floor_notes) = floor_replaced(recs);
+    let mut d = diagnose_read(&read, opts, sim)?;
+    if !floor_notes.is_empty() {
+        // the predictions' `measured` column is the recording as read, the floor's samples at 0 V
+        for (p, rec) in d.predictions.iter_mut().zip(recs) {
+            p.measured = rec.response.iter().step_by(p.stride.max(1)).copied().collect();
+        }
+    }
     d.notes.splice(0..0, floor_notes);
     Some(d)
 }
