@@ -61,26 +61,20 @@ fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
     (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
 }
 
-thread_local! {
-    /// The rig's preload (g) the cases are simulated with: 20 g, or none on the "no preload" row.
-    static PRELOAD_G: std::cell::Cell<f64> = const { std::cell::Cell::new(20.0) };
-}
+/// The rig's preload (g) the cases are simulated with (none on the "no preload" row).
+const PRELOAD_G: f64 = 20.0;
 
-fn preload_g() -> f64 {
-    PRELOAD_G.with(|p| p.get())
-}
-
-/// Effect RMS of the noise-free signal at magnitude m.
-fn effect_rms(s0: &SensorParams, p: &ProtocolParams, e: E, m: f64, top: f64) -> f64 {
+/// Effect RMS of the noise-free signal at magnitude m, with a preload of `pre` g.
+fn effect_rms(s0: &SensorParams, (p, pre): (&ProtocolParams, f64), e: E, m: f64, top: f64) -> f64 {
     let mut s = s0.clone();
     e.set(&mut s, m, top);
-    let (_, a) = simulate(s0, p, preload_g(), None, 1);
-    let (_, b) = simulate(&s, p, preload_g(), None, 1);
+    let (_, a) = simulate(s0, p, pre, None, 1);
+    let (_, b) = simulate(&s, p, pre, None, 1);
     rms_diff(&a.clean_v, &b.clean_v)
 }
 
 /// The magnitude that gives a target effect RMS (bisection in log magnitude).
-fn magnitude_for(s0: &SensorParams, p: &ProtocolParams, e: E, target: f64, top: f64) -> f64 {
+fn magnitude_for(s0: &SensorParams, p: (&ProtocolParams, f64), e: E, target: f64, top: f64) -> f64 {
     let (mut lo, mut hi) = (1e-7f64, if e == E::Sat { top } else { 1.0 });
     for _ in 0..50 {
         let mid = (lo * hi).sqrt();
@@ -109,8 +103,8 @@ fn sq_err(pred: &[f64], truth: &[f64]) -> f64 {
 /// when there is nothing to find, so its error to the truth is the least an improved model with
 /// the baseline's freedom can be expected to reach.
 fn run_with_floor(s: &SensorParams, s0: &SensorParams, p: &ProtocolParams, seed: u64) -> Outcome {
-    let mut o = run(s, p, seed);
-    let sims: Vec<_> = (0..3).map(|k| simulate(s0, p, preload_g(), None, seed + k)).collect();
+    let mut o = run(s, (p, PRELOAD_G), seed);
+    let sims: Vec<_> = (0..3).map(|k| simulate(s0, p, PRELOAD_G, None, seed + k)).collect();
     let recs: Vec<_> = sims.iter().map(|x| x.0.clone()).collect();
     let d = refitted_baseline(&recs, &Default::default()).expect("diagnosis");
     let ef: f64 = d.predictions.iter().zip(&sims).map(|(pr, (_, truth))| sq_err(&pr.baseline, &truth.clean_v)).sum();
@@ -123,8 +117,9 @@ fn run_with_floor(s: &SensorParams, s0: &SensorParams, p: &ProtocolParams, seed:
     o
 }
 
-fn run(s: &SensorParams, p: &ProtocolParams, seed: u64) -> Outcome {
-    let sims: Vec<_> = (0..3).map(|k| simulate(s, p, preload_g(), None, seed + k)).collect();
+/// One case (three trials, seeds `seed`…), with a preload of `pre` g, diagnosed blind.
+fn run(s: &SensorParams, (p, pre): (&ProtocolParams, f64), seed: u64) -> Outcome {
+    let sims: Vec<_> = (0..3).map(|k| simulate(s, p, pre, None, seed + k)).collect();
     let recs: Vec<_> = sims.iter().map(|x| x.0.clone()).collect();
     // TIPFORGE_DISCOVERY_DUMP=DIR: each case's trials written as DIR/SEED-1.csv … (to diagnose one
     // with the CLI)
@@ -142,7 +137,7 @@ fn run(s: &SensorParams, p: &ProtocolParams, seed: u64) -> Outcome {
     // placing weights by hand, not sensor physics); the same seeds, so everything else is equal
     let mut s_true = s.clone();
     s_true.effects.spike_v = 0.0;
-    let truths: Vec<_> = (0..3).map(|k| simulate(&s_true, p, preload_g(), None, seed + k)).collect();
+    let truths: Vec<_> = (0..3).map(|k| simulate(&s_true, p, pre, None, seed + k)).collect();
     let (mut eb, mut ei) = (0.0, 0.0);
     for (pr, (_, truth)) in d.predictions.iter().zip(&truths) {
         eb += sq_err(&pr.baseline, &truth.clean_v);
@@ -160,7 +155,7 @@ fn main() {
     let p0 = ProtocolParams::from_source(&load("params/protocol-1000g.toml")).unwrap();
     let sigma = s0.noise_v;
     let n: u64 = std::env::var("TIPFORGE_DISCOVERY_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(8);
-    let top = s0.v_eq((1000.0 + 20.0) / 1000.0 * 9.80665);
+    let top = s0.v_eq((1000.0 + PRELOAD_G) / 1000.0 * 9.80665);
     // TIPFORGE_DISCOVERY_ONLY=saturation,creep: only those effects' cells (quick looks while tuning);
     // TIPFORGE_DISCOVERY_CELLS: stop after the single-effect cells; TIPFORGE_DISCOVERY_VERBOSE: each
     // case's floor, baseline and improved error to the truth (mV) on stderr; TIPFORGE_DISCOVERY_SEED: first seed (reports use ≥ 50 000; see the header for the tuning seeds)
@@ -180,7 +175,7 @@ fn main() {
     let levels: Vec<f64> = std::env::var("TIPFORGE_DISCOVERY_LEVELS").map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect()).unwrap_or_else(|_| vec![3.0, 1.0, 0.3]);
     for &e in effects.iter().filter(|_| !pairs_only && !variations_only) {
         for &k in &levels {
-            let m = magnitude_for(&s0, &p0, e, k * sigma, top);
+            let m = magnitude_for(&s0, (&p0, PRELOAD_G), e, k * sigma, top);
             let mut s = s0.clone();
             e.set(&mut s, m, top);
             let (mut hit, mut other) = (0, 0);
@@ -218,7 +213,7 @@ fn main() {
         if pairs_only || variations_only {
             break;
         }
-        let o = run(&s0, &p0, seed);
+        let o = run(&s0, (&p0, PRELOAD_G), seed);
         seed += 10;
         if !o.found.is_empty() {
             false_any += 1;
@@ -247,12 +242,12 @@ fn main() {
             seed = pairs_seed0 + 10 * n * k as u64;
         }
         let mut s = s0.clone();
-        a.set(&mut s, magnitude_for(&s0, &p0, a, 3.0 * sigma, top), top);
-        b.set(&mut s, magnitude_for(&s0, &p0, b, 3.0 * sigma, top), top);
+        a.set(&mut s, magnitude_for(&s0, (&p0, PRELOAD_G), a, 3.0 * sigma, top), top);
+        b.set(&mut s, magnitude_for(&s0, (&p0, PRELOAD_G), b, 3.0 * sigma, top), top);
         let mut both = 0;
         let mut first = String::new();
         for i in 0..n {
-            let o = run(&s, &p0, seed);
+            let o = run(&s, (&p0, PRELOAD_G), seed);
             seed += 10;
             if o.found.iter().any(|f| f == a.name()) && o.found.iter().any(|f| f == b.name()) {
                 both += 1;
@@ -382,8 +377,8 @@ fn main() {
         }
         let (mut sv, mut pv) = (s0.clone(), p0.clone());
         f(&mut sv, &mut pv);
-        PRELOAD_G.with(|p| p.set(if label == NO_PRELOAD { 0.0 } else { 20.0 }));
-        let topv = sv.v_eq((pv.weights_g.iter().sum::<f64>() + preload_g()) / 1000.0 * 9.80665);
+        let pre = if label == NO_PRELOAD { 0.0 } else { PRELOAD_G };
+        let topv = sv.v_eq((pv.weights_g.iter().sum::<f64>() + pre) / 1000.0 * 9.80665);
         let mut cells = Vec::new();
         for &e in &effects {
             // an actuator places nothing by hand: no handling spikes to find (`--actuator`)
@@ -392,7 +387,7 @@ fn main() {
                 seed += 10 * n;
                 continue;
             }
-            let m = magnitude_for(&sv, &pv, e, sv.noise_v, topv);
+            let m = magnitude_for(&sv, (&pv, pre), e, sv.noise_v, topv);
             let mut s = sv.clone();
             e.set(&mut s, m, topv);
             let mut hit = 0;
@@ -401,7 +396,7 @@ fn main() {
                 if e == E::Sat && sv.effects.saturation_before_noise {
                     s.effects.saturation_v = rail_case(&sv, &pv, case);
                 }
-                let found = run(&s, &pv, seed).found;
+                let found = run(&s, (&pv, pre), seed).found;
                 if found.iter().any(|x| x == e.name()) {
                     hit += 1;
                 } else if std::env::var("TIPFORGE_DISCOVERY_VERBOSE").is_ok() {
@@ -413,7 +408,7 @@ fn main() {
         }
         let mut fa = 0;
         for _ in 0..n {
-            let found = run(&sv, &pv, seed).found;
+            let found = run(&sv, (&pv, pre), seed).found;
             if !found.is_empty() {
                 fa += 1;
                 if std::env::var("TIPFORGE_DISCOVERY_VERBOSE").is_ok() {
@@ -476,7 +471,7 @@ fn speed() {
 /// of the way down from the fourth level toward the third), or between the fourth level and the top
 /// one (a quarter, half and three quarters of the way up), in turn.
 fn rail_case(s: &SensorParams, p: &ProtocolParams, case: u64) -> f64 {
-    let level = |k: usize| s.v_eq((p.weights_g.iter().take(k).sum::<f64>() + 20.0) / 1000.0 * 9.80665);
+    let level = |k: usize| s.v_eq((p.weights_g.iter().take(k).sum::<f64>() + PRELOAD_G) / 1000.0 * 9.80665);
     let n = p.weights_g.len();
     let (l3, l4, l5) = (level(n - 2), level(n - 1), level(n));
     match case % 4 {

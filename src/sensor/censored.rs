@@ -12,7 +12,7 @@
 //! second's mean is then its fitted level. Seconds with fewer than [`MIN_ABOVE`] samples above the
 //! floor say nothing about how far below it the level lies; their samples stay as read.
 
-use super::preprocess::median;
+use super::preprocess::{diff_sigma, median};
 use super::recording::Recording;
 
 /// A pile at the floor has at least this many samples…
@@ -83,20 +83,16 @@ pub fn note(source: &str, c: &Censored, samples: usize) -> String {
     )
 }
 
-/// The noise σ from first differences (robust: the median absolute deviation) of samples both above
-/// the floor, and then of samples both over 5 of those σ above it (next to the floor the noise is
-/// cut, and its spread with it), when there are enough; None when there are too few at all.
+/// The noise σ from first differences (`preprocess::diff_sigma`) of samples both above the floor,
+/// and then of samples both over 5 of those σ above it (next to the floor the noise is cut, and
+/// its spread with it), when there are enough; None when there are too few at all.
 fn sigma_above(v: &[f64]) -> Option<f64> {
     let of = |over: f64| -> Option<f64> {
-        let mut d: Vec<f64> = v.windows(2).filter(|w| w[0] > over && w[1] > over).map(|w| w[1] - w[0]).collect();
+        let d: Vec<f64> = v.windows(2).filter(|w| w[0] > over && w[1] > over).map(|w| w[1] - w[0]).collect();
         if d.len() < MIN_PILE {
             return None;
         }
-        let m = median(&mut d);
-        for x in d.iter_mut() {
-            *x = (*x - m).abs();
-        }
-        let s = 1.4826 * median(&mut d) / std::f64::consts::SQRT_2;
+        let s = diff_sigma(d);
         (s > 0.0 && s.is_finite()).then_some(s)
     };
     let near = of(0.0)?;

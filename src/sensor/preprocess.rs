@@ -110,7 +110,12 @@ pub fn noise_sigma(v: &[f64]) -> f64 {
     // at most ~MAX_STAT_SAMPLES differences, evenly strided (a robust σ from 10^6 differences is
     // as good as from 10^7, and a long recording's memory is not doubled for it)
     let stride = v.len().div_ceil(MAX_STAT_SAMPLES).max(1);
-    let mut d: Vec<f64> = v.windows(2).step_by(stride).map(|w| w[1] - w[0]).collect();
+    diff_sigma(v.windows(2).step_by(stride).map(|w| w[1] - w[0]).collect())
+}
+
+/// The noise σ behind first differences `d` of a series: 1.4826 · MAD(d) / √2 (the MAD on an ADC's
+/// grid when the differences sit on one).
+pub fn diff_sigma(mut d: Vec<f64>) -> f64 {
     let m = median(&mut d);
     for x in d.iter_mut() {
         *x = (*x - m).abs();

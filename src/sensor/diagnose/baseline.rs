@@ -155,13 +155,15 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> (Options, Option<
         return (opts.clone(), None);
     }
     let least = if actuator { MIN_RAMP_GAIN } else { MIN_HAND_RAMP_GAIN };
+    // a built baseline, and its held-out RMSE (infinite when it cannot be scored)
+    let scored = |b: Option<Built>| {
+        let s = b.as_ref().map(|b| b.base.heldout_rmse).filter(|s| s.is_finite()).unwrap_or(f64::INFINITY);
+        (s, b)
+    };
     let score = |r: Option<Ramp>| -> f64 {
         let mut o = opts.clone();
         o.pre.ramp = r;
-        match build(recs, &o, None) {
-            Some(b) if b.base.heldout_rmse.is_finite() => b.base.heldout_rmse,
-            _ => f64::INFINITY,
-        }
+        scored(build(recs, &o, None)).0
     };
     // the candidates scored in parallel, the best taken in their order (the same on any machine)
     let best_of = |cands: Vec<Option<Ramp>>| -> (f64, Option<Ramp>) {
@@ -173,19 +175,15 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> (Options, Option<
         .into_iter()
         .flat_map(|smooth| RAMP_GRID_S.into_iter().filter(|&d| d <= 0.5 * shortest).map(move |d| Some(Ramp { duration_s: d, end_after_log_s: 0.0, smooth })))
         .collect();
-    // the baseline at once, and its held-out RMSE (infinite when it cannot be scored)
-    let at_once_of = |b: Option<Built>| {
-        let s = b.as_ref().map(|b| b.base.heldout_rmse).filter(|s| s.is_finite()).unwrap_or(f64::INFINITY);
-        (s, b)
-    };
+    // the baseline at once is kept (the diagnosis takes it when no ramp is)
     let ((at_once, built), mut best) = if actuator {
-        rayon::join(|| at_once_of(build(recs, opts, None)), || best_of(grid))
+        rayon::join(|| scored(build(recs, opts, None)), || best_of(grid))
     } else {
         // by hand, only a baseline at once that fails by HAND_RAMP_AT × the noise is worth the search
         let Some(b) = build(recs, opts, None) else { return (opts.clone(), None) };
         let mut sig: Vec<f64> = b.trials.iter().map(|t| t.sigma).collect();
         sig.sort_by(f64::total_cmp);
-        let (at_once, b) = at_once_of(Some(b));
+        let (at_once, b) = scored(Some(b));
         if sig.is_empty() || at_once <= HAND_RAMP_AT * sig[sig.len() / 2] {
             return (opts.clone(), b);
         }
