@@ -89,6 +89,11 @@ pub use report::*;
 
 /// A term must improve held-out prediction with a paired z of at least this over units.
 pub const MIN_Z: f64 = 3.0;
+/// The set-up's per-trial gains (`nuisance::try_gains`) must also lower BIC by this much: the one
+/// place BIC still decides. Without it the gains (two columns per trial) entered on a clean sensor
+/// with a 1e-5 V/s drift (ΔBIC +49, yet 26 % better held out at a paired z of 5.7), and the drift's
+/// alternative went from creep to hysteresis (`tests/advice.rs`, seed 3).
+pub const MIN_DBIC: f64 = -10.0;
 /// The relaxation spectrum is preferred to an exact form (creep, one second time constant) that
 /// also passes only when its held-out RMSE (both with their first-order shape refitted) is lower
 /// by more than this share. Set on family A: a 5 % second relaxation (seed 70 000) came out 4.7 %

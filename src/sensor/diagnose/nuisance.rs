@@ -21,8 +21,8 @@ pub struct NuisanceTerm {
     pub delta_bic: f64,
 }
 
-/// Per-trial gains, when they predict held-out data better than the model without them by a paired
-/// z ≥ MIN_Z (ΔBIC is not a decider: issue 15, item 5).
+/// Per-trial gains, when they pass the rule every term passes (lower held-out error, paired z ≥
+/// MIN_Z, ΔBIC ≤ MIN_DBIC) against the model without them.
 pub(super) fn try_gains(d: &Design, trials: &[Trial], cur: &Config, cur_score: &Score, hat: &Hat) -> Option<(Config, Score, Vec<f64>, NuisanceTerm)> {
     if d.prior || trials.len() < 2 || cur.gains {
         return None;
@@ -31,7 +31,8 @@ pub(super) fn try_gains(d: &Design, trials: &[Trial], cur: &Config, cur_score: &
     c.gains = true;
     let (s, x) = score(d, trials, &c, hat)?;
     let z = paired_z(&cur_score.units, &s.units);
-    if !(s.heldout_rmse < cur_score.heldout_rmse && z >= MIN_Z) {
+    let dbic = s.bic - cur_score.bic;
+    if !(s.heldout_rmse < cur_score.heldout_rmse && z >= MIN_Z && dbic <= MIN_DBIC) {
         return None;
     }
     let g0 = d.gain_col(&c);
@@ -47,7 +48,7 @@ pub(super) fn try_gains(d: &Design, trials: &[Trial], cur: &Config, cur_score: &
         heldout_rmse_before: cur_score.heldout_rmse,
         heldout_rmse_after: s.heldout_rmse,
         z,
-        delta_bic: s.bic - cur_score.bic,
+        delta_bic: dbic,
     };
     Some((c, s, x, nt))
 }
