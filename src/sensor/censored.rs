@@ -8,7 +8,9 @@
 //! Where the samples pile up at exactly 0 V, each second's level is fitted as a censored normal
 //! (Tobit: the samples above the floor by their density, the count at the floor by the probability
 //! of reading under it, σ from the recording's noise above the floor), and each sample at the floor
-//! is replaced by its expected value given that it lies below: μ − σ·φ(α)/Φ(α), α = (0 − μ)/σ. The
+//! is replaced by its expected value given that it lies below: μ − σ·φ(α)/Φ(α), α = (c − μ)/σ, where
+//! c is half the ADC's step (a reading of 0 is a value under it; 0 when the readings are not on a
+//! grid). The
 //! second's mean is then its fitted level. Seconds with fewer than [`MIN_ABOVE`] samples above the
 //! floor say nothing about how far below it the level lies; their samples stay as read.
 
@@ -35,6 +37,8 @@ pub struct Censored {
     pub replaced: usize,
     /// The noise σ (V) the levels were fitted with.
     pub sigma_v: f64,
+    /// The value (V) a reading at the floor lies under: half the ADC's step, or 0 off a grid.
+    pub cut_v: f64,
 }
 
 /// The recording with its samples at the ADC's floor (0 V) replaced by their expected values below
@@ -52,6 +56,9 @@ pub fn uncensored(rec: &Recording) -> Option<(Recording, Censored)> {
         return None;
     }
     let sigma = sigma_above(&rec.response)?;
+    // a reading of 0 is a value under half the ADC's step (the step's middle: rounded, or
+    // truncated and read as the step's foot, which shifts every reading alike)
+    let cut = 0.5 * adc_step(rec, next);
     // the median sample interval (a logger's jitter does not change the block's length)
     let mut gaps: Vec<f64> = rec.time_s.windows(2).map(|w| w[1] - w[0]).filter(|g| g.is_finite() && *g > 0.0).collect();
     let dt = if gaps.is_empty() { BLOCK_S / MIN_BLOCK as f64 } else { median(&mut gaps) };
@@ -64,23 +71,43 @@ pub fn uncensored(rec: &Recording) -> Option<(Recording, Censored)> {
         if below == 0 || above.len() < MIN_ABOVE {
             continue;
         }
-        let mu = tobit_level(&above, below, sigma);
-        let alpha = -mu / sigma;
-        let expected = mu - sigma * mills(alpha);
+        let mu = tobit_level(&above, below, sigma, cut);
+        let expected = mu - sigma * mills((cut - mu) / sigma);
         for v in chunk.iter_mut().filter(|v| **v == 0.0) {
             *v = expected;
         }
         replaced += below;
     }
-    Some((out, Censored { at_floor, replaced, sigma_v: sigma }))
+    Some((out, Censored { at_floor, replaced, sigma_v: sigma, cut_v: cut }))
 }
 
 /// The note a report gives for one recording's censored samples.
 pub fn note(source: &str, c: &Censored, samples: usize) -> String {
     format!(
-        "{source}: {} of {samples} samples read exactly 0 V, the ADC's floor (the noise under it is cut off, so the samples above it alone put a level near zero too high): {} of them, in the seconds that also hold samples above the floor, were replaced by their expected value below it (each second's level fitted as a normal censored at 0 V, σ {:.3e} V); the rest stay as read",
-        c.at_floor, c.replaced, c.sigma_v
+        "{source}: {} of {samples} samples read exactly 0 V, the ADC's floor (the noise under it is cut off, so the samples above it alone put a level near zero too high): {} of them, in the seconds that also hold samples above the floor, were replaced by their expected value below it (each second's level fitted as a normal censored at {:.3e} V, half the ADC's step, σ {:.3e} V); the rest stay as read",
+        c.at_floor, c.replaced, c.cut_v, c.sigma_v
     )
+}
+
+/// The ADC's step (V) near the floor: from the recording's `adc_bits` and `vref_v` when it gives
+/// them, else the lowest reading above the floor (`next`) when the readings near the floor all sit
+/// on its multiples (a recording in volts converted from counts), else 0 (not read on a grid).
+fn adc_step(rec: &Recording, next: f64) -> f64 {
+    if let (Some(bits), Some(vref)) = (rec.meta.adc_bits, rec.meta.vref_v) {
+        if bits > 0 && bits < 64 && vref > 0.0 {
+            return vref / ((1u64 << bits) as f64 - 1.0);
+        }
+    }
+    if !(next.is_finite() && next > 0.0) {
+        return 0.0;
+    }
+    let low: Vec<f64> = rec.response.iter().copied().filter(|&v| v > 0.0 && v < 20.0 * next).collect();
+    let on_grid = low.iter().filter(|&&v| ((v / next) - (v / next).round()).abs() < 1e-3).count();
+    if !low.is_empty() && on_grid as f64 >= 0.99 * low.len() as f64 && low.iter().any(|&v| v > 1.5 * next) {
+        next
+    } else {
+        0.0
+    }
 }
 
 /// The noise σ from first differences (`preprocess::diff_sigma`) of samples both above the floor,
@@ -112,11 +139,12 @@ fn mills(a: f64) -> f64 {
     }
 }
 
-/// The maximum-likelihood level μ of samples `above` the floor (0) and `below` samples at it, from
-/// a normal of known σ censored at 0: the root of Σ(u − μ)/σ² − below·φ(α)/(σΦ(α)), α = −μ/σ,
-/// which falls as μ rises (by bisection).
-fn tobit_level(above: &[f64], below: usize, sigma: f64) -> f64 {
-    let score = |mu: f64| above.iter().map(|u| u - mu).sum::<f64>() / (sigma * sigma) - below as f64 * mills(-mu / sigma) / sigma;
+/// The maximum-likelihood level μ of samples `above` the floor and `below` samples at it, from a
+/// normal of known σ censored at `cut` (the readings at the floor are the values under it): the
+/// root of Σ(u − μ)/σ² − below·φ(α)/(σΦ(α)), α = (cut − μ)/σ, which falls as μ rises (by
+/// bisection).
+fn tobit_level(above: &[f64], below: usize, sigma: f64, cut: f64) -> f64 {
+    let score = |mu: f64| above.iter().map(|u| u - mu).sum::<f64>() / (sigma * sigma) - below as f64 * mills((cut - mu) / sigma) / sigma;
     let top = above.iter().copied().fold(0.0, f64::max);
     let (mut lo, mut hi) = (-10.0 * sigma, top.max(sigma));
     // widen downwards until the score changes sign (a level far under the floor)
@@ -180,7 +208,20 @@ mod tests {
         assert_eq!(uncensored(&jittered).map(|(r, _)| r.response), Some(fixed.response.clone()));
         let high = Recording { response: noise.iter().map(|e| 1.0 + sigma * e).collect(), ..rec.clone() };
         assert!(uncensored(&high).is_none());
-        let negative = Recording { response: noise.iter().map(|e| truth + sigma * e).collect(), ..rec };
+        let negative = Recording { response: noise.iter().map(|e| truth + sigma * e).collect(), ..rec.clone() };
         assert!(uncensored(&negative).is_none());
+        // on an ADC's grid of half σ (a 10-bit Arduino at 5 V under 10 mV of noise), rounded: a
+        // reading of 0 is a value under a quarter σ. Censored at 0 the level came out 0.10 σ low;
+        // at half the step, within 0.03 σ, whether the step is given or read off the grid.
+        let q = 0.5 * sigma;
+        let on_grid: Vec<f64> = noise.iter().enumerate().map(|(i, e)| ((level(i) + sigma * e) / q).round().max(0.0) * q).collect();
+        let grid = Recording { response: on_grid.clone(), ..rec.clone() };
+        let (fixed, c) = uncensored(&grid).expect("a pile at the floor");
+        assert!((c.cut_v - 0.5 * q).abs() < 1e-12, "{c:?}");
+        assert!((mean(&fixed.response) - truth).abs() < 0.03 * sigma, "on a grid: {}", (mean(&fixed.response) - truth) / sigma);
+        let mut meta = rec.meta.clone();
+        (meta.adc_bits, meta.vref_v) = (Some(10), Some(q * 1023.0));
+        let given = Recording { meta, ..grid };
+        assert_eq!(uncensored(&given).map(|(r, _)| r.response), Some(fixed.response));
     }
 }

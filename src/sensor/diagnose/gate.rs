@@ -112,23 +112,6 @@ pub(super) fn change_z(clip: bool, before: &Score, after: &Score, clip_units: &[
     }
 }
 
-/// The held-out RMSE gain of `after` over `before` that a change is judged on: over every unit, or
-/// for a clip (`clip`) over the units it can change (`clip_units`, every group together), since a
-/// rail acts on the few steps that reach it however long the recording.
-pub(super) fn change_gain(clip: bool, before: &Score, after: &Score, clip_units: &[Vec<(usize, usize)>]) -> f64 {
-    let keys: Vec<(usize, usize)> = if clip { clip_units.iter().flatten().copied().collect() } else { vec![] };
-    if keys.is_empty() {
-        return after.gain_over(before);
-    }
-    let total = |s: &Score| -> f64 { s.unit_keys.iter().zip(&s.units).filter(|(k, _)| keys.contains(k)).map(|(_, v)| *v).sum() };
-    let (b, a) = (total(before), total(after));
-    if b > 0.0 {
-        1.0 - (a / b).sqrt()
-    } else {
-        0.0
-    }
-}
-
 /// Whether a signed-rank test over `n` units can reach the level `z` at all: its largest z, with
 /// every unit better, is n(n+1)/2 over its standard deviation (2.93 for 11 units, 3.06 for 12,
 /// 3.18 for 13 and 3.29 for 14).

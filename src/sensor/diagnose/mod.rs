@@ -8,9 +8,9 @@
 //! their shape parameter): creep, hysteresis, a second time constant, baseline drift, a relaxation
 //! spectrum and saturation (a clip); handling spikes are reported and excluded, never modelled.
 //! A term enters when it lowers the held-out error (leave one trial out; with one recording, leave
-//! one step out or forecast the later blocks of each hold) by at least `MIN_ROBUST_GAIN`, with a
-//! paired z of at least `MIN_Z` over units; of the terms that pass, the one that predicts held-out
-//! data best. ΔBIC is reported, never a decider (issue 15, item 5).
+//! one step out or forecast the later blocks of each hold) with a paired z of at least `MIN_Z`
+//! over units (`gate::paired_z`); of the terms that pass, the one that predicts held-out data best.
+//! ΔBIC is reported, never a decider for a term (issue 15, item 5).
 //!
 //! The pipeline (`run`), one stage per file, on recordings whose samples piled at an ADC's floor
 //! (0 V) were first replaced by their expected value below it (`diagnose_with`, through

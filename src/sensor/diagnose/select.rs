@@ -1,6 +1,6 @@
 //! Selection: the set-up's nuisances first, then forward rounds (every catalogue term and a rest
-//! relaxation proposed; of those with a held-out gain of at least MIN_ROBUST_GAIN and a paired z of
-//! MIN_Z, the one that predicts held-out data best is accepted) and the backward check (a kept term
+//! relaxation proposed; of those with a paired z of MIN_Z, the one that predicts held-out data best
+//! is accepted, ΔBIC recorded only) and the backward check (a kept term
 //! leaves when it no longer passes given the others and the others stand without it); terms the
 //! backward check dropped are tried again in one more pass.
 
@@ -142,9 +142,13 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
             exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
         }
-        // every term must be worth its name (issue 15, item 5): at least MIN_ROBUST_GAIN held
-        // out, on the units it can change (a clip's: the rises into the rail and the falls from it)
-        let judged_gain = change_gain(e == Effect::Saturation, cur_score, &s, &clip_steps.units);
+        // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN.
+        // (A term passes at any gain on the z of the differences; MIN_ROBUST_GAIN is asked of the
+        // rank route only, `gate::paired_z`. Asked of every term, it cost a 1σ creep under a
+        // hand's touch and the trials' nuisances its name on 8 of 8 seeds of
+        // `a_hands_touch_is_handling_and_hides_no_creep`: held out, its gain was 1.3–2.7 % of an
+        // error the trials' rest states dominate, at z 3.2–4.8.)
+        let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { 0.0 };
         // and a term fitted per trial must beat the same term shared by the trials (the guide's
         // two hypotheses): a rest relaxation whose trials agree is a warm-up of the read-out,
         // the drift's
@@ -153,7 +157,7 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         // and a creep or a hysteresis must have its physics' sign (`gate::of_its_sign`)
         // the passing candidate that predicts held-out data best is taken; ΔBIC is recorded, not
         // a decider (with 10⁴ autocorrelated samples it says little)
-        if judged_gain >= MIN_ROBUST_GAIN && z >= MIN_Z && best.as_ref().is_none_or(|b| s.heldout_rmse < b.2.heldout_rmse) && of_its_sign(d, &c, &x, e) && per_trial() {
+        if gain > least && z >= MIN_Z && best.as_ref().is_none_or(|b| s.heldout_rmse < b.2.heldout_rmse) && of_its_sign(d, &c, &x, e) && per_trial() {
             best = Some((e, c, s, x));
         }
     }
@@ -180,7 +184,7 @@ fn backward(
             let c = without(cur, idx);
             let Some((s_wo, x_wo)) = score(d, trials, &c, hat) else { continue };
             let z = change_z(*e == Effect::Saturation, &s_wo, cur_score, &clip_steps.units);
-            let passes = z >= MIN_Z && change_gain(*e == Effect::Saturation, &s_wo, cur_score, &clip_steps.units) >= MIN_ROBUST_GAIN;
+            let passes = z >= MIN_Z;
             let others_stand = c.effects.is_empty() || (paired_z(&floor.units, &s_wo.units) >= MIN_Z && s_wo.heldout_rmse < floor.heldout_rmse);
             if !passes && others_stand && worst.as_ref().is_none_or(|w| z < w.4) {
                 worst = Some((idx, c, s_wo, x_wo, z));
