@@ -833,35 +833,18 @@ fn samples_at_the_adc_floor_make_no_false_drift() {
     }
 }
 
-/// Issue 15, item 5: terms the backward check drops are tried again. A conductance creep of 0.2 %
-/// per decade with no preload (family A's advice case, seed 3): a warm-up drift enters first, a
-/// hysteresis beside it, and then the drift no longer passes given the hysteresis and is dropped;
-/// with the drift gone, a second relaxation, which the drift had stood in for, passes and enters
-/// (stop 40 stopped at the backward check with the drift and a second relaxation). Of the terms
-/// that pass in a round, the best held out is taken.
+/// Samples at the ADC's floor, fitted over blocks that stop at the logged changes and censored at
+/// half the ADC's step: a conductance creep of 0.2 % per decade seen through the divider, with no
+/// preload (family A's advice case, seed 3). Stop 40 (blocks across the changes, censored at 0 V)
+/// named a warm-up drift and a second relaxation, each with creep as an alternative; now creep
+/// alone.
 #[test]
-fn a_term_the_backward_check_drops_leaves_room_for_another() {
+fn a_conductance_creep_read_at_the_floor_is_named_creep() {
     let mut s = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
     (s.effects.creep_per_decade, s.effects.creep_superposed, s.effects.creep_in_conductance) = (0.002, true, true);
     let p = ProtocolParams::from_source(&load("params/protocol-1000g.toml")).unwrap();
     let recs: Vec<_> = (0..3).map(|k| simulate(&s, &p, 0.0, None, 3 + k).0).collect();
     let d = diagnose(&recs, &Default::default()).unwrap();
-    let dec = &d.decisions;
-    let accepted_in = |step: usize| dec.iter().find(|x| x.step == step && x.accepted).map(|x| x.candidate);
-    // a backward entry: a step of one decision, on a term accepted before it, not accepted
-    let dropped = (0..dec.len()).find(|&i| {
-        let one = dec.iter().filter(|x| x.step == dec[i].step).count() == 1;
-        one && !dec[i].accepted && (0..dec[i].step).any(|st| accepted_in(st) == Some(dec[i].candidate))
-    });
-    let Some(i) = dropped else { panic!("no term dropped: {dec:?}") };
-    let entered_after = dec[i + 1..].iter().find(|x| x.accepted && x.candidate != dec[i].candidate).map(|x| x.candidate);
-    assert!(entered_after.is_some(), "nothing entered after {} was dropped: {dec:?}", dec[i].candidate);
-    assert!(d.findings.iter().any(|f| Some(f.effect) == entered_after), "{:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>());
-    // every accepted forward candidate predicted held-out data best among those that passed
-    for x in dec.iter().filter(|x| x.accepted) {
-        let rivals = dec.iter().filter(|y| y.step == x.step && !y.accepted && y.z >= 3.0 && y.delta_bic <= -10.0 && y.candidate != "rest_relaxation");
-        for y in rivals {
-            assert!(y.heldout_rmse >= x.heldout_rmse, "step {}: {} taken over {} held out better", x.step, x.candidate, y.candidate);
-        }
-    }
+    let named: Vec<_> = d.findings.iter().map(|f| (f.effect, f.alternatives.iter().map(|a| a.effect).collect::<Vec<_>>())).collect();
+    assert_eq!(named, vec![("creep", vec![])], "{:?}", d.decisions);
 }

@@ -10,9 +10,9 @@
 //! of reading under it, σ from the recording's noise above the floor), and each sample at the floor
 //! is replaced by its expected value given that it lies below: μ − σ·φ(α)/Φ(α), α = (c − μ)/σ, where
 //! c is half the ADC's step (a reading of 0 is a value under it; 0 when the readings are not on a
-//! grid). The
-//! second's mean is then its fitted level. Seconds with fewer than [`MIN_ABOVE`] samples above the
-//! floor say nothing about how far below it the level lies; their samples stay as read.
+//! grid). The second's mean is then its fitted level. The seconds are counted from each logged
+//! change of the load, so that none holds two loads. Seconds with fewer than [`MIN_ABOVE`] samples
+//! above the floor say nothing about how far below it the level lies; their samples stay as read.
 
 use super::preprocess::{diff_sigma, median};
 use super::recording::Recording;
@@ -65,7 +65,8 @@ pub fn uncensored(rec: &Recording) -> Option<(Recording, Censored)> {
     let block = ((BLOCK_S / dt).round() as usize).max(MIN_BLOCK);
     let mut out = rec.clone();
     let mut replaced = 0;
-    for chunk in out.response.chunks_mut(block) {
+    for (a, b) in blocks(&rec.protocol, rec.len(), block) {
+        let chunk = &mut out.response[a..b];
         let above: Vec<f64> = chunk.iter().copied().filter(|&v| v > 0.0).collect();
         let below = chunk.len() - above.len();
         if below == 0 || above.len() < MIN_ABOVE {
@@ -79,6 +80,25 @@ pub fn uncensored(rec: &Recording) -> Option<(Recording, Censored)> {
         replaced += below;
     }
     Some((out, Censored { at_floor, replaced, sigma_v: sigma, cut_v: cut }))
+}
+
+/// The blocks (start, end) a level is fitted over: each stretch between the logged load's changes
+/// (`protocol`, one value per sample) cut into about `block` samples each, so that no block holds
+/// two loads (a block across a step to zero load would fit one level to both). A recording
+/// without a protocol column is one stretch.
+fn blocks(protocol: &[f64], n: usize, block: usize) -> Vec<(usize, usize)> {
+    let mut cuts: Vec<usize> = vec![0];
+    if protocol.len() == n {
+        cuts.extend((1..n).filter(|&i| protocol[i] != protocol[i - 1]));
+    }
+    cuts.push(n);
+    let mut out = Vec::new();
+    for w in cuts.windows(2) {
+        let (a, len) = (w[0], w[1] - w[0]);
+        let k = (len / block.max(1)).max(1);
+        out.extend((0..k).map(|j| (a + j * len / k, a + (j + 1) * len / k)).filter(|(x, y)| y > x));
+    }
+    out
 }
 
 /// The note a report gives for one recording's censored samples.
@@ -223,5 +243,16 @@ mod tests {
         (meta.adc_bits, meta.vref_v) = (Some(10), Some(q * 1023.0));
         let given = Recording { meta, ..grid };
         assert_eq!(uncensored(&given).map(|(r, _)| r.response), Some(fixed.response));
+    }
+
+    /// A level's blocks stop at the logged load's changes: a load logged from sample 130 to 370 of
+    /// 500, blocks of about 100 samples.
+    #[test]
+    fn blocks_do_not_straddle_a_logged_change() {
+        let protocol: Vec<f64> = (0..500).map(|i| if (130..370).contains(&i) { 1000.0 } else { 0.0 }).collect();
+        let b = blocks(&protocol, 500, 100);
+        assert_eq!(b, vec![(0, 130), (130, 250), (250, 370), (370, 500)]);
+        assert_eq!(blocks(&[], 250, 100), vec![(0, 125), (125, 250)]);
+        assert_eq!(blocks(&[], 50, 100), vec![(0, 50)]);
     }
 }

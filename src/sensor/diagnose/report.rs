@@ -118,6 +118,11 @@ pub(super) fn unit_errors(trials: &[Trial], base: &Score, cur: &Score) -> Vec<Un
 #[derive(Debug, Clone, Serialize)]
 pub struct Decision {
     pub step: usize,
+    /// Where it was decided: `forward` (a round of forward selection), `backward` (the backward
+    /// check dropping a kept term), `renamed` (honest naming: a better explanation, a merge or a
+    /// settled name in a named term's place), `spectrum` (the relaxation spectrum in place of the
+    /// exact forms) or `through` (the conductance's creep through the read-out).
+    pub stage: &'static str,
     pub candidate: &'static str,
     pub heldout_rmse: f64,
     pub gain: f64,

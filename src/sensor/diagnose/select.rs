@@ -138,7 +138,7 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
         let dbic = s.bic - cur_score.bic;
         let z = change_z(e == Effect::Saturation, cur_score, &s, &clip_steps.units);
-        decisions.push(Decision { step: round, candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
+        decisions.push(Decision { step: round, stage: "forward", candidate: e.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: dbic, accepted: false });
         if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
             exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
         }
@@ -197,6 +197,7 @@ fn backward(
         let Some((idx, c, s_wo, x_wo, z)) = worst else { break };
         let gone = cur.effects[idx];
         decisions.push(Decision {
+            stage: "backward",
             step: decisions.last().map(|d| d.step + 1).unwrap_or(0),
             candidate: gone.name(),
             heldout_rmse: s_wo.heldout_rmse,
@@ -253,6 +254,7 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
                 rename(&mut findings, replaced[0], b, &cur_score, d, &hat);
             }
             decisions.push(Decision {
+                stage: "renamed",
                 step: decisions.last().map(|x| x.step + 1).unwrap_or(0),
                 candidate: b.effect.name(),
                 heldout_rmse: b.score.heldout_rmse,

@@ -157,7 +157,7 @@ pub(super) fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score
     } else {
         (s, x)
     };
-    let dec = Decision { step, candidate: Effect::Relaxation.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: s.bic - cur_judged.bic, accepted };
+    let dec = Decision { step, stage: "spectrum", candidate: Effect::Relaxation.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: s.bic - cur_judged.bic, accepted };
     Some((c, s, x, dec))
 }
 

@@ -72,7 +72,7 @@ pub(super) fn replace_slow(
     let z = paired_z(&cur_score.units, &s.units);
     let accepted = gain > least_gain(&c) && z >= MIN_Z;
     let step = decisions.last().map(|x| x.step + 1).unwrap_or(0);
-    decisions.push(Decision { step, candidate: Effect::Creep.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: s.bic - cur_score.bic, accepted });
+    decisions.push(Decision { step, stage: "through", candidate: Effect::Creep.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: s.bic - cur_score.bic, accepted });
     if !accepted {
         return false;
     }
