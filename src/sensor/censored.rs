@@ -11,7 +11,7 @@
 //! is replaced by its expected value given that it lies below: μ − σ·φ(α)/Φ(α), α = (c − μ)/σ, where
 //! c is half the ADC's step (a reading of 0 is a value under it; 0 when the readings are not on a
 //! grid). The second's mean is then its fitted level. The seconds are counted from each logged
-//! change of the load, so that none holds two loads. Seconds with fewer than [`MIN_ABOVE`] samples
+//! change of the load, so that none runs across one. Seconds with fewer than [`MIN_ABOVE`] samples
 //! above the floor say nothing about how far below it the level lies; their samples stay as read.
 
 use super::preprocess::{diff_sigma, median};
@@ -68,7 +68,7 @@ pub fn uncensored(rec: &Recording) -> Option<(Recording, Censored)> {
     for (a, b) in blocks(&rec.protocol, rec.len(), block) {
         let chunk = &mut out.response[a..b];
         let above: Vec<f64> = chunk.iter().copied().filter(|&v| v > 0.0).collect();
-        let below = chunk.len() - above.len();
+        let below = chunk.iter().filter(|&&v| v == 0.0).count();
         if below == 0 || above.len() < MIN_ABOVE {
             continue;
         }
@@ -83,13 +83,22 @@ pub fn uncensored(rec: &Recording) -> Option<(Recording, Censored)> {
 }
 
 /// The blocks (start, end) a level is fitted over: each stretch between the logged load's changes
-/// (`protocol`, one value per sample) cut into about `block` samples each, so that no block holds
-/// two loads (a block across a step to zero load would fit one level to both). A recording
-/// without a protocol column is one stretch.
+/// (`protocol`, one value per sample) cut into about `block` samples each, so that a block does not
+/// run across a logged change (one across a step to zero load would fit one level to both; the log
+/// may still follow the landing by a fraction of a second). A change less than [`MIN_BLOCK`]
+/// samples after the last one kept, or before the end, is not a cut (a logging glitch); a protocol
+/// that changes more often than once a block (a load measured as it varies), and a recording
+/// without a protocol column, are one stretch.
 fn blocks(protocol: &[f64], n: usize, block: usize) -> Vec<(usize, usize)> {
     let mut cuts: Vec<usize> = vec![0];
-    if protocol.len() == n {
-        cuts.extend((1..n).filter(|&i| protocol[i] != protocol[i - 1]));
+    let changes: Vec<usize> = if protocol.len() == n { (1..n).filter(|&i| protocol[i] != protocol[i - 1]).collect() } else { vec![] };
+    // more changes than blocks: a load measured as it varies, not logged steps
+    if changes.len() * block.max(1) <= n {
+        for i in changes {
+            if i - cuts[cuts.len() - 1] >= MIN_BLOCK && n - i >= MIN_BLOCK {
+                cuts.push(i);
+            }
+        }
     }
     cuts.push(n);
     let mut out = Vec::new();
@@ -104,22 +113,30 @@ fn blocks(protocol: &[f64], n: usize, block: usize) -> Vec<(usize, usize)> {
 /// The note a report gives for one recording's censored samples.
 pub fn note(source: &str, c: &Censored, samples: usize) -> String {
     format!(
-        "{source}: {} of {samples} samples read exactly 0 V, the ADC's floor (the noise under it is cut off, so the samples above it alone put a level near zero too high): {} of them, in the seconds that also hold samples above the floor, were replaced by their expected value below it (each second's level fitted as a normal censored at {:.3e} V, half the ADC's step, σ {:.3e} V); the rest stay as read",
-        c.at_floor, c.replaced, c.cut_v, c.sigma_v
+        "{source}: {} of {samples} samples read exactly 0 V, the ADC's floor (the noise under it is cut off, so the samples above it alone put a level near zero too high): {} of them, in the seconds that also hold samples above the floor, were replaced by their expected value below it (each second's level fitted as a normal censored at {}, σ {:.3e} V); the rest stay as read",
+        c.at_floor,
+        c.replaced,
+        if c.cut_v > 0.0 { format!("{:.3e} V, half the ADC's step", c.cut_v) } else { "0 V (the readings are not on an ADC's grid)".to_string() },
+        c.sigma_v
     )
 }
 
 /// The ADC's step (V) near the floor: from the recording's `adc_bits` and `vref_v` when it gives
-/// them, else the lowest reading above the floor (`next`) when the readings near the floor all sit
-/// on its multiples (a recording in volts converted from counts), else 0 (not read on a grid).
+/// them and the lowest reading above the floor (`next`) is one of its multiples, else `next` when
+/// the readings near the floor all sit on its multiples (a recording in volts converted from
+/// counts), else 0 (not read on a grid: a gain stage, averaged readings).
 fn adc_step(rec: &Recording, next: f64) -> f64 {
-    if let (Some(bits), Some(vref)) = (rec.meta.adc_bits, rec.meta.vref_v) {
-        if bits > 0 && bits < 64 && vref > 0.0 {
-            return vref / ((1u64 << bits) as f64 - 1.0);
-        }
-    }
     if !(next.is_finite() && next > 0.0) {
         return 0.0;
+    }
+    if let (Some(bits), Some(vref)) = (rec.meta.adc_bits, rec.meta.vref_v) {
+        if bits > 0 && bits < 64 && vref > 0.0 && vref.is_finite() {
+            let q = vref / ((1u64 << bits) as f64 - 1.0);
+            let k = (next / q).round();
+            if k >= 1.0 && (next / q - k).abs() < 0.01 {
+                return q;
+            }
+        }
     }
     let low: Vec<f64> = rec.response.iter().copied().filter(|&v| v > 0.0 && v < 20.0 * next).collect();
     let on_grid = low.iter().filter(|&&v| ((v / next) - (v / next).round()).abs() < 1e-3).count();
@@ -241,12 +258,16 @@ mod tests {
         assert!((mean(&fixed.response) - truth).abs() < 0.03 * sigma, "on a grid: {}", (mean(&fixed.response) - truth) / sigma);
         let mut meta = rec.meta.clone();
         (meta.adc_bits, meta.vref_v) = (Some(10), Some(q * 1023.0));
-        let given = Recording { meta, ..grid };
-        assert_eq!(uncensored(&given).map(|(r, _)| r.response), Some(fixed.response));
+        let given = Recording { meta: meta.clone(), ..grid.clone() };
+        assert_eq!(uncensored(&given).map(|(r, _)| r.response), Some(fixed.response.clone()));
+        // a step the readings are not on (a gain stage after the ADC): the grid read off the data
+        meta.vref_v = Some(0.37 * q * 1023.0);
+        let off = Recording { meta, ..grid };
+        assert_eq!(uncensored(&off).map(|(r, c)| (r.response, c.cut_v)), Some((fixed.response, 0.5 * q)));
     }
 
     /// A level's blocks stop at the logged load's changes: a load logged from sample 130 to 370 of
-    /// 500, blocks of about 100 samples.
+    /// 500, blocks of about 100 samples; changes closer than MIN_BLOCK samples are not cuts.
     #[test]
     fn blocks_do_not_straddle_a_logged_change() {
         let protocol: Vec<f64> = (0..500).map(|i| if (130..370).contains(&i) { 1000.0 } else { 0.0 }).collect();
@@ -254,5 +275,10 @@ mod tests {
         assert_eq!(b, vec![(0, 130), (130, 250), (250, 370), (370, 500)]);
         assert_eq!(blocks(&[], 250, 100), vec![(0, 125), (125, 250)]);
         assert_eq!(blocks(&[], 50, 100), vec![(0, 50)]);
+        // a change one sample in, one before the end, or one every sample is no cut
+        let glitch: Vec<f64> = (0..250).map(|i| if i == 0 || i == 249 { 1.0 } else { 0.0 }).collect();
+        assert_eq!(blocks(&glitch, 250, 100), vec![(0, 125), (125, 250)]);
+        let measured: Vec<f64> = (0..250).map(|i| i as f64).collect();
+        assert_eq!(blocks(&measured, 250, 100), vec![(0, 125), (125, 250)]);
     }
 }
