@@ -466,13 +466,17 @@ fn a_name_stands_alone_only_when_the_data_separate_it() {
     let d = at_zero(&|s| s.effects.drift_v_per_s = 1e-5, 3..6);
     let f = d.findings.iter().find(|f| f.effect == "baseline_drift").expect("the drift is named");
     assert_ne!(f.confidence, "high");
-    for alt in ["creep", "hysteresis"] {
+    // (with hysteresis as well until stop 40: the floor's samples, censored at 0 V and fitted over
+    // blocks across the logged changes, left a misfit at the steps to zero load that a hysteresis
+    // took up as well as the drift; censored at half the ADC's step, over blocks that stop at the
+    // changes, only creep explains the drift's residual about as well)
+    for alt in ["creep"] {
         let a = f.alternatives.iter().find(|a| a.effect == alt).unwrap_or_else(|| panic!("no {alt} alternative: {:?}", f.alternatives));
         // in the drift's place it predicts about as well: within the separation and within 10 %
         assert!(a.z_named_over_this.abs() < Z_SEPARATE && (a.heldout_rmse / f.heldout_rmse_after - 1.0).abs() < 0.10, "{a:?} vs {}", f.heldout_rmse_after);
     }
     let s = f.ambiguity.as_deref().unwrap();
-    assert!(s.starts_with("baseline_drift, creep or hysteresis: this recording cannot tell them apart"), "{s}");
+    assert!(s.starts_with("baseline_drift or creep: this recording cannot tell them apart"), "{s}");
 }
 
 /// Issue 16, item 5: a resistance recording without divider metadata (clean simulated data, the
