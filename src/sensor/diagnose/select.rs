@@ -108,6 +108,16 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
         if !dropped || pass == 1 {
             break;
         }
+        // the levels the next pass builds on: those of the model the backward check left
+        if !d.prior {
+            for _ in 0..2 {
+                let next = d.levels_in(&cur_x);
+                let Some((s2, x2)) = score(d, trials, &cur, &next) else { break };
+                hat = next;
+                cur_score = s2;
+                cur_x = x2;
+            }
+        }
     }
     Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, exact: exact0 }
 }
