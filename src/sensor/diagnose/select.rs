@@ -91,13 +91,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
             // the terms are built on the levels (two-stage): take them from the model with its terms
             // (the baseline's levels have absorbed part of the effects), and refit
             if !d.prior {
-                for _ in 0..2 {
-                    let next = d.levels_in(&cur_x);
-                    let Some((s2, x2)) = score(d, trials, &cur, &next) else { break };
-                    hat = next;
-                    cur_score = s2;
-                    cur_x = x2;
-                }
+                relevel(d, trials, &cur, (&mut cur_score, &mut cur_x, &mut hat));
                 if let (Some(f), false) = (findings.last_mut(), e == Effect::RestRelaxation) {
                     f.heldout_rmse_after = cur_score.heldout_rmse;
                 }
@@ -110,16 +104,23 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
         }
         // the levels the next pass builds on: those of the model the backward check left
         if !d.prior {
-            for _ in 0..2 {
-                let next = d.levels_in(&cur_x);
-                let Some((s2, x2)) = score(d, trials, &cur, &next) else { break };
-                hat = next;
-                cur_score = s2;
-                cur_x = x2;
-            }
+            relevel(d, trials, &cur, (&mut cur_score, &mut cur_x, &mut hat));
         }
     }
     Selected { cfg: cur, score: cur_score, x: cur_x, hat, findings, decisions, nuisances, exact: exact0 }
+}
+
+/// The levels re-estimated from the model `cur` (solved `x`) and the model refitted on them, twice:
+/// the terms are built on the levels (two-stage), and the baseline's levels absorbed part of the
+/// effects.
+fn relevel(d: &Design, trials: &[Trial], cur: &Config, (score_, x, hat): (&mut Score, &mut Vec<f64>, &mut Hat)) {
+    for _ in 0..2 {
+        let next = d.levels_in(x);
+        let Some((s2, x2)) = score(d, trials, cur, &next) else { break };
+        *hat = next;
+        *score_ = s2;
+        *x = x2;
+    }
 }
 
 /// The z of the accepted candidate `e` in round `round`.
