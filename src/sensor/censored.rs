@@ -14,7 +14,7 @@
 //! change of the load, so that none runs across one. Seconds with fewer than [`MIN_ABOVE`] samples
 //! above the floor say nothing about how far below it the level lies; their samples stay as read.
 
-use super::preprocess::{diff_sigma, median};
+use super::preprocess::diff_sigma;
 use super::recording::Recording;
 
 /// A pile at the floor has at least this many samples…
@@ -60,8 +60,7 @@ pub fn uncensored(rec: &Recording) -> Option<(Recording, Censored)> {
     // truncated and read as the step's foot, which shifts every reading alike)
     let cut = 0.5 * adc_step(rec, next);
     // the median sample interval (a logger's jitter does not change the block's length)
-    let mut gaps: Vec<f64> = rec.time_s.windows(2).map(|w| w[1] - w[0]).filter(|g| g.is_finite() && *g > 0.0).collect();
-    let dt = if gaps.is_empty() { BLOCK_S / MIN_BLOCK as f64 } else { median(&mut gaps) };
+    let dt = Some(rec.dt()).filter(|d| d.is_finite() && *d > 0.0).unwrap_or(BLOCK_S / MIN_BLOCK as f64);
     let block = ((BLOCK_S / dt).round() as usize).max(MIN_BLOCK);
     let mut out = rec.clone();
     let mut replaced = 0;
@@ -129,13 +128,10 @@ fn adc_step(rec: &Recording, next: f64) -> f64 {
     if !(next.is_finite() && next > 0.0) {
         return 0.0;
     }
-    if let (Some(bits), Some(vref)) = (rec.meta.adc_bits, rec.meta.vref_v) {
-        if bits > 0 && bits < 64 && vref > 0.0 && vref.is_finite() {
-            let q = vref / ((1u64 << bits) as f64 - 1.0);
-            let k = (next / q).round();
-            if k >= 1.0 && (next / q - k).abs() < 0.01 {
-                return q;
-            }
+    if let Some(q) = rec.meta.adc_step_v() {
+        let k = (next / q).round();
+        if k >= 1.0 && (next / q - k).abs() < 0.01 {
+            return q;
         }
     }
     let low: Vec<f64> = rec.response.iter().copied().filter(|&v| v > 0.0 && v < 20.0 * next).collect();

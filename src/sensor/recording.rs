@@ -362,21 +362,33 @@ fn check_meta(p: &mut P, meta: &Meta, meta_lines: &BTreeMap<String, usize>, t: &
     }
 }
 
+impl Meta {
+    /// The ADC's full scale in counts (2^bits − 1) and its reference (V), when the metadata give
+    /// both (bits 1–63, vref positive and finite).
+    pub fn adc_scale(&self) -> Option<(f64, f64)> {
+        match (self.adc_bits, self.vref_v) {
+            (Some(bits), Some(vref)) if (1..64).contains(&bits) && vref > 0.0 && vref.is_finite() => Some(((1u64 << bits) as f64 - 1.0, vref)),
+            _ => None,
+        }
+    }
+    /// One ADC count in volts, vref / (2^bits − 1).
+    pub fn adc_step_v(&self) -> Option<f64> {
+        self.adc_scale().map(|(full, vref)| vref / full)
+    }
+}
+
 /// The response in volts where the metadata allow, else in its column's unit.
 fn to_unit(p: &mut P, response_column: &'static str, r: Vec<f64>, meta: &Meta, header_line: usize) -> (Vec<f64>, &'static str) {
-    if let (Some(bits), Some(_)) = (meta.adc_bits, meta.vref_v) {
-        if response_column == "adc_counts" {
-            let max = (1u64 << bits.min(32)) as f64 - 1.0;
-            if let Some(bad) = r.iter().position(|&v| v < 0.0 || v > max) {
-                p.at(0, "adc_counts", r[bad], format!("outside 0..{max} for adc_bits = {bits}: the metadata or the column is wrong"));
-            }
+    if let (Some((max, _)), Some(bits), "adc_counts") = (meta.adc_scale(), meta.adc_bits, response_column) {
+        if let Some(bad) = r.iter().position(|&v| v < 0.0 || v > max) {
+            p.at(0, "adc_counts", r[bad], format!("outside 0..{max} for adc_bits = {bits}: the metadata or the column is wrong"));
         }
     }
     match response_column {
         "voltage_v" => (r, "V"),
-        "adc_counts" => match (meta.adc_bits, meta.vref_v) {
-            (Some(bits), Some(vref)) => (r.iter().map(|c| c / ((1u64 << bits) as f64 - 1.0) * vref).collect(), "V"),
-            _ => {
+        "adc_counts" => match meta.adc_scale() {
+            Some((full, vref)) => (r.iter().map(|c| c / full * vref).collect(), "V"),
+            None => {
                 p.at(header_line, "adc_counts", "no adc_bits/vref_v", "converting counts to volts needs `# adc_bits=12` and `# vref_v=3.3` metadata lines");
                 (r, "counts")
             }
