@@ -148,6 +148,8 @@ fn run(s: &SensorParams, (p, pre): (&ProtocolParams, f64), seed: u64) -> Outcome
 }
 
 /// The variation without a preload.
+const RAIL_BY_RMS_40: &str = "a rail before the noise at 1σ RMS, 40 g steps";
+const RAIL_BY_RMS_200: &str = "a rail before the noise at 1σ RMS, 200 g steps";
 const NO_PRELOAD: &str = "no preload: the zero-load level at the ADC's floor (0 V)";
 
 fn main() {
@@ -365,6 +367,33 @@ fn main() {
         // no preload (stop 40): the zero-load level sits on 0 V, where the ADC cannot read below it,
         // so the noise there is cut off (as a real FSR402 on an Arduino reads 0 counts at rest)
         (NO_PRELOAD, Box::new(|_, _| {})),
+        // a rail before the noise whose height is set by its RMS (1σ), as for every other effect,
+        // not placed between levels (`rail_case`): on 40 g and on 200 g steps (stop 42)
+        (
+            RAIL_BY_RMS_40,
+            Box::new(|s, p| {
+                p.weights_g = vec![40.0; 5];
+                s.effects.saturation_before_noise = true
+            }),
+        ),
+        (
+            RAIL_BY_RMS_200,
+            Box::new(|s, p| {
+                p.weights_g = vec![200.0; 5];
+                s.effects.saturation_before_noise = true
+            }),
+        ),
+        // a trial's own nuisance against a physics term shared by the trials (stop 42): 40 g steps
+        // placed by hand, with the trials' gains, AR noise and rest relaxations of up to 5σ, so
+        // that a rest relaxation fitted per trial explains part of what the physics leaves
+        (
+            "40 g steps with the trial nuisances, rests up to 5σ",
+            Box::new(|s, p| {
+                p.weights_g = vec![40.0; 5];
+                trial_nuisances(s);
+                s.nuisance.rest_v = 5.0 * s.noise_v
+            }),
+        ),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {
@@ -393,7 +422,7 @@ fn main() {
             let mut hit = 0;
             let nv = n;
             for case in 0..nv {
-                if e == E::Sat && sv.effects.saturation_before_noise {
+                if e == E::Sat && sv.effects.saturation_before_noise && label != RAIL_BY_RMS_40 && label != RAIL_BY_RMS_200 {
                     s.effects.saturation_v = rail_case(&sv, &pv, case);
                 }
                 let found = run(&s, (&pv, pre), seed).found;

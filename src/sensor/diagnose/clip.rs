@@ -179,11 +179,16 @@ pub(super) fn clip_level(trials: &[Trial]) -> Option<f64> {
 }
 
 /// How far the top load's increment must fall short of what the two increments below it predict
-/// for a rail to be proposed. A divider's compression slows the increments smoothly: over power
-/// laws G ∝ F^n with n 0.85–1.25, the top load at 70–90 % of the divider's span, 5 equal weights
-/// of 40 or 200 g and preloads of 0.05–0.3 N, the top increment is 1.03–1.14 × the geometric
-/// continuation of the two below it (noise-free); a rail cuts it.
-pub(super) const RAIL_COLLAPSE: f64 = 0.85;
+/// (their geometric continuation) for a rail to be proposed. A divider's compression slows the
+/// increments smoothly: noise-free, over power laws G ∝ F^n with n 0.6–1.25, the top load at
+/// 30–96 % of the divider's span, 5 equal weights of 10–500 g and preloads of 0–0.5 N, the top
+/// increment is at least 0.979 × that continuation (at least 0.997 for n ≤ 1.1); on family A's
+/// tuning seeds the least without a rail was 0.985 (a second time constant on 40 g steps), and
+/// 1.020 on the 0–1000 g protocol with the trials' nuisances. A rail whose height is set by its
+/// RMS of 1σ, as every other effect's, cuts it to 0.89 on 40 g steps and 0.96 on 200 g steps; at
+/// stop 41's 0.85 neither was proposed (saturation 0/8 on both rows).
+/// A proposal only lets the clip term compete: it must still pass the gate.
+pub(super) const RAIL_COLLAPSE: f64 = 0.97;
 
 /// An amplifier's rail before the noise (issue 15, item 4): the samples do not pile up at one value
 /// (the plateau is the rail ± the noise, so [`clip_level`] sees none), but the staircase of levels
@@ -205,8 +210,7 @@ pub(super) fn rail_level(d: &Design, trials: &[Trial], hat: &Hat) -> Option<f64>
     }
     // increments per unit of load (the weights may differ)
     let inc: Vec<f64> = lv.windows(2).map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0)).collect();
-    let (a, b, top) = (inc[m - 4], inc[m - 3], inc[m - 2]);
-    if !(a > 0.0 && b > 0.0 && top < RAIL_COLLAPSE * b * (b / a).min(1.0)) {
+    if !cut_at_the_top(&inc) {
         return None;
     }
     let top_load = lv[m - 1].0;
@@ -220,6 +224,18 @@ pub(super) fn rail_level(d: &Design, trials: &[Trial], hat: &Hat) -> Option<f64>
         }
     }
     (settled.len() >= 10).then(|| crate::sensor::preprocess::median(&mut settled))
+}
+
+/// Whether a staircase's increments (per unit of load, in the order of the loads; at least three)
+/// collapse at the top: the last falls under [`RAIL_COLLAPSE`] of the geometric continuation of the
+/// two below it (their ratio capped at 1: a staircase that still steepens is continued flat).
+fn cut_at_the_top(inc: &[f64]) -> bool {
+    let m = inc.len();
+    if m < 3 {
+        return false;
+    }
+    let (a, b, top) = (inc[m - 3], inc[m - 2], inc[m - 1]);
+    a > 0.0 && b > 0.0 && top < RAIL_COLLAPSE * b * (b / a).min(1.0)
 }
 
 impl ClipSteps {
@@ -252,6 +268,38 @@ mod tests {
         let fixes = clip_fixes(&b.trials, level, &steps);
         assert_eq!(fixes.len(), 3);
         assert!(clip_level(&fixture::built(&fixture::recs(7000, |_| {})).trials).is_none());
+    }
+
+    /// The noise-free staircase of a power law seen through a divider is never taken for a rail,
+    /// whatever the law (n 0.6–1.25), how far up the divider's span the top load reaches (30–96 %),
+    /// the weights (10–500 g) and the preload (0–0.5 N); the same staircase with its top level cut
+    /// by a rail by 12 % of its rise, is, wherever the law is gentle enough for the geometric
+    /// continuation (the top increment within 8 % of it).
+    #[test]
+    fn a_divider_power_law_is_no_rail_and_a_cut_top_is() {
+        let (mut clean, mut cut, mut gentle) = (0, 0, 0);
+        for n in (0..=13).map(|k| 0.6 + 0.05 * k as f64) {
+            for share in (0..=22).map(|k| 0.30 + 0.03 * k as f64) {
+                for w in [10.0, 20.0, 40.0, 100.0, 200.0, 500.0] {
+                    for pre in [0.0, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5] {
+                        let top_n = 5.0 * w / 1000.0 * 9.80665 + pre;
+                        let g = share / (1.0 - share) / f64::powf(top_n, n);
+                        let v: Vec<f64> = (0..6).map(|k| k as f64 * w / 1000.0 * 9.80665 + pre).map(|f| if f > 0.0 { g * f.powf(n) / (1.0 + g * f.powf(n)) } else { 0.0 }).collect();
+                        let mut inc: Vec<f64> = v.windows(2).map(|p| (p[1] - p[0]) / w).collect();
+                        assert!(!cut_at_the_top(&inc), "n {n} share {share} w {w} pre {pre}: {inc:?}");
+                        clean += 1;
+                        let cont = inc[3] * (inc[3] / inc[2]).min(1.0);
+                        if inc[4] < 1.08 * cont {
+                            gentle += 1;
+                            inc[4] *= 0.88;
+                            cut += usize::from(cut_at_the_top(&inc));
+                        }
+                    }
+                }
+            }
+        }
+        assert!(clean > 10_000 && gentle > clean / 2, "{clean} laws, {gentle} gentle");
+        assert_eq!(cut, gentle, "a 12 % cut is seen on every gentle law");
     }
 
     /// Compressed top levels (a conductance exponent of 0.85, the top load at 85 % of the span):
