@@ -852,3 +852,40 @@ fn a_conductance_creep_read_at_the_floor_is_named_creep() {
     let named: Vec<_> = d.findings.iter().map(|f| (f.effect, f.alternatives.iter().map(|a| a.effect).collect::<Vec<_>>())).collect();
     assert_eq!(named, vec![("creep", vec![])], "{:?}", d.decisions);
 }
+
+/// Issue 15, item 4 (saturation when the rail comes before the noise), with the rail's height set
+/// as every other effect's: by its RMS contribution, 1σ (the noise-free signal with the rail minus
+/// the one without it, over the trial). On 40 g and 200 g steps such a rail cuts only the top
+/// level, by a few σ; the staircase's top increment falls to about 0.89 and 0.96 of the
+/// continuation of the two below it. Stop 41 proposed a rail only under 0.85, so it never
+/// competed (family A's rows: 0 / 8 on both; family B's rail cases: 0 / 6). Fresh seeds 97 000 and
+/// 97 100, not looked at before.
+#[test]
+fn a_rail_of_one_sigma_is_found_on_40_g_and_200_g_steps() {
+    for (w, seed) in [(40.0, 97_000u64), (200.0, 97_100)] {
+        let mut s = SensorParams::from_source(&load("params/sensor.toml")).unwrap();
+        s.effects.saturation_before_noise = true;
+        let mut p = ProtocolParams::from_source(&load("params/protocol-1000g.toml")).unwrap();
+        p.weights_g = vec![w; 5];
+        let clean = simulate(&s, &p, 20.0, None, seed).1.clean_v;
+        let top = clean.iter().copied().fold(f64::MIN, f64::max);
+        // the rail whose RMS contribution is 1σ (bisection on its depth below the top)
+        let (mut lo, mut hi) = (0.0, top);
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            s.effects.saturation_v = top - mid;
+            let with = simulate(&s, &p, 20.0, None, seed).1.clean_v;
+            let rms = (with.iter().zip(&clean).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / clean.len() as f64).sqrt();
+            if rms < s.noise_v {
+                lo = mid
+            } else {
+                hi = mid
+            }
+        }
+        s.effects.saturation_v = top - 0.5 * (lo + hi);
+        let recs: Vec<_> = (0..3).map(|k| simulate(&s, &p, 20.0, None, seed + k).0).collect();
+        let d = diagnose(&recs, &Default::default()).unwrap();
+        let named: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
+        assert_eq!(named, vec!["saturation"], "{w} g, seed {seed}: {:?}", d.decisions);
+    }
+}
