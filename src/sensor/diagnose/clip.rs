@@ -284,7 +284,8 @@ mod tests {
                     for pre in [0.0, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5] {
                         let top_n = 5.0 * w / 1000.0 * 9.80665 + pre;
                         let g = share / (1.0 - share) / f64::powf(top_n, n);
-                        let v: Vec<f64> = (0..6).map(|k| k as f64 * w / 1000.0 * 9.80665 + pre).map(|f| if f > 0.0 { g * f.powf(n) / (1.0 + g * f.powf(n)) } else { 0.0 }).collect();
+                        let v: Vec<f64> =
+                            (0..6).map(|k| k as f64 * w / 1000.0 * 9.80665 + pre).map(|f| if f > 0.0 { g * f.powf(n) / (1.0 + g * f.powf(n)) } else { 0.0 }).collect();
                         let mut inc: Vec<f64> = v.windows(2).map(|p| (p[1] - p[0]) / w).collect();
                         assert!(!cut_at_the_top(&inc), "n {n} share {share} w {w} pre {pre}: {inc:?}");
                         clean += 1;
