@@ -372,43 +372,13 @@ fn main() {
         // so the noise there is cut off (as a real FSR402 on an Arduino reads 0 counts at rest)
         (NO_PRELOAD, Box::new(|_, _| {})),
         // a rail before the noise whose height is set by its RMS (1σ), as for every other effect,
-        // not placed between levels (`rail_case`): on 40 g and on 200 g steps (stop 42)
-        (
-            RAIL_BY_RMS_40,
-            Box::new(|s, p| {
-                p.weights_g = vec![40.0; 5];
-                s.effects.saturation_before_noise = true
-            }),
-        ),
-        (
-            RAIL_BY_RMS_200,
-            Box::new(|s, p| {
-                p.weights_g = vec![200.0; 5];
-                s.effects.saturation_before_noise = true
-            }),
-        ),
-        // the same rails with the lab's nuisances: the trials' gains (±3 %, so a trial's top level
-        // sits tens of mV above or below the rail), rests, AR noise, and a hand's touch
-        (
-            RAIL_BY_RMS_40_LAB,
-            Box::new(|s, p| {
-                p.weights_g = vec![40.0; 5];
-                s.effects.saturation_before_noise = true;
-                trial_nuisances(s);
-                p.touch_s = 0.5;
-                p.press_fraction = 0.12
-            }),
-        ),
-        (
-            RAIL_BY_RMS_200_LAB,
-            Box::new(|s, p| {
-                p.weights_g = vec![200.0; 5];
-                s.effects.saturation_before_noise = true;
-                trial_nuisances(s);
-                p.touch_s = 0.5;
-                p.press_fraction = 0.12
-            }),
-        ),
+        // not placed between levels (`rail_case`): on 40 g and on 200 g steps (stop 42); then the
+        // same with the lab's nuisances: the trials' gains (±3 %, so a trial's top level sits mV
+        // above or below the rail), rests, AR noise, and a hand's touch
+        (RAIL_BY_RMS_40, rail_by_rms(40.0, false)),
+        (RAIL_BY_RMS_200, rail_by_rms(200.0, false)),
+        (RAIL_BY_RMS_40_LAB, rail_by_rms(40.0, true)),
+        (RAIL_BY_RMS_200_LAB, rail_by_rms(200.0, true)),
         // a trial's own nuisance against a physics term shared by the trials (stop 42): 40 g steps
         // placed by hand, with the trials' gains, AR noise and rest relaxations of up to 5σ, so
         // that a rest relaxation fitted per trial explains part of what the physics leaves
@@ -520,6 +490,20 @@ fn speed() {
         println!("| {label} | {samples} | {:.2} |", times[2]);
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A variation with an amplifier's rail before the noise on steps of `weight_g` (its height set by
+/// its RMS, as every effect's), with the trials' nuisances and a hand's touch when `lab`.
+fn rail_by_rms(weight_g: f64, lab: bool) -> Box<dyn Fn(&mut SensorParams, &mut ProtocolParams)> {
+    Box::new(move |s, p| {
+        p.weights_g = vec![weight_g; 5];
+        s.effects.saturation_before_noise = true;
+        if lab {
+            trial_nuisances(s);
+            p.touch_s = 0.5;
+            p.press_fraction = 0.12
+        }
+    })
 }
 
 /// The rail of the rail variation's `case`-th saturation case: below the top two levels (a quarter
