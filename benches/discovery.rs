@@ -147,13 +147,13 @@ fn run(s: &SensorParams, (p, pre): (&ProtocolParams, f64), seed: u64) -> Outcome
     Outcome { found: d.findings.iter().map(|f| f.effect.to_string()).collect(), ratio: (ei / eb.max(1e-300)).sqrt(), floor: eb }
 }
 
-/// The variation without a preload.
 const RAIL_BY_RMS_40: &str = "a rail before the noise at 1σ RMS, 40 g steps";
 const RAIL_BY_RMS_200: &str = "a rail before the noise at 1σ RMS, 200 g steps";
 const RAIL_BY_RMS_40_LAB: &str = "the same (40 g) with the trial nuisances and a hand's touch";
 const RAIL_BY_RMS_200_LAB: &str = "the same (200 g) with the trial nuisances and a hand's touch";
 /// The rows whose rail is set by its RMS, as every other effect's (not by `rail_case`).
 const RAILS_BY_RMS: [&str; 4] = [RAIL_BY_RMS_40, RAIL_BY_RMS_200, RAIL_BY_RMS_40_LAB, RAIL_BY_RMS_200_LAB];
+/// The variation without a preload.
 const NO_PRELOAD: &str = "no preload: the zero-load level at the ADC's floor (0 V)";
 
 fn main() {
@@ -373,8 +373,9 @@ fn main() {
         (NO_PRELOAD, Box::new(|_, _| {})),
         // a rail before the noise whose height is set by its RMS (1σ), as for every other effect,
         // not placed between levels (`rail_case`): on 40 g and on 200 g steps (stop 42); then the
-        // same with the lab's nuisances: the trials' gains (±3 %, so a trial's top level sits mV
-        // above or below the rail), rests, AR noise, and a hand's touch
+        // same with the lab's nuisances: the trials' gains (±3 %, so a trial's top level sits about
+        // 15 mV (40 g) or 25 mV (200 g) above or below the rail, more than its depth), rests, AR
+        // noise, and a hand's touch
         (RAIL_BY_RMS_40, rail_by_rms(40.0, false)),
         (RAIL_BY_RMS_200, rail_by_rms(200.0, false)),
         (RAIL_BY_RMS_40_LAB, rail_by_rms(40.0, true)),

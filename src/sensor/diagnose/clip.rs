@@ -182,7 +182,7 @@ pub(super) fn clip_level(trials: &[Trial]) -> Option<f64> {
 /// (their geometric continuation) for a rail to be proposed. A divider's compression slows the
 /// increments smoothly: noise-free, over power laws G ∝ F^n with n 0.6–1.25, the top load at
 /// 30–96 % of the divider's span, 5 equal weights of 10–500 g and preloads of 0–0.5 N, the top
-/// increment is at least 0.979 × that continuation (at least 0.997 for n ≤ 1.1); on family A's
+/// increment is at least 0.978 × that continuation (at least 0.997 for n ≤ 1.1); on family A's
 /// tuning seeds the least without a rail was 0.985 (a second time constant on 40 g steps), and
 /// 1.020 on the 0–1000 g protocol with the trials' nuisances. A rail whose height is set by its
 /// RMS of 1σ, as every other effect's, cuts it to 0.89 on 40 g steps and 0.96 on 200 g steps; at
@@ -228,14 +228,20 @@ pub(super) fn rail_level(d: &Design, trials: &[Trial], hat: &Hat) -> Option<f64>
 
 /// Whether a staircase's increments (per unit of load, in the order of the loads; at least three)
 /// collapse at the top: the last falls under [`RAIL_COLLAPSE`] of the geometric continuation of the
-/// two below it (their ratio capped at 1: a staircase that still steepens is continued flat).
+/// two below it ([`continuation_ratio`]).
 fn cut_at_the_top(inc: &[f64]) -> bool {
+    continuation_ratio(inc).is_some_and(|r| r < RAIL_COLLAPSE)
+}
+
+/// The top increment over the geometric continuation of the two below it (their ratio capped at 1:
+/// a staircase that still steepens is continued flat); None unless those two rise.
+fn continuation_ratio(inc: &[f64]) -> Option<f64> {
     let m = inc.len();
     if m < 3 {
-        return false;
+        return None;
     }
     let (a, b, top) = (inc[m - 3], inc[m - 2], inc[m - 1]);
-    a > 0.0 && b > 0.0 && top < RAIL_COLLAPSE * b * (b / a).min(1.0)
+    (a > 0.0 && b > 0.0).then(|| top / (b * (b / a).min(1.0)))
 }
 
 impl ClipSteps {
@@ -270,37 +276,43 @@ mod tests {
         assert!(clip_level(&fixture::built(&fixture::recs(7000, |_| {})).trials).is_none());
     }
 
-    /// The noise-free staircase of a power law seen through a divider is never taken for a rail,
-    /// whatever the law (n 0.6–1.25), how far up the divider's span the top load reaches (30–96 %),
-    /// the weights (10–500 g) and the preload (0–0.5 N); the same staircase with its top level cut
-    /// by a rail by 12 % of its rise, is, wherever the law is gentle enough for the geometric
-    /// continuation (the top increment within 8 % of it).
+    /// The noise-free staircase of a power law seen through a divider (sensor between supply and
+    /// node: v/Vcc = x/(1+x), x = G·Rm ∝ F^n) is never taken for a rail, whatever the law (n
+    /// 0.6–1.25), how far up the divider's span the top load reaches (30–96 %), the equal weights
+    /// (10–500 g) and the preload (0–0.5 N): its top increment stays at 0.978 of the continuation or
+    /// above (0.997 for n ≤ 1.1), 1 % over the threshold. A rail that cuts 6 % off the top rise (a
+    /// 1σ rail on 200 g steps cuts about that much) is seen wherever the law keeps the top increment
+    /// within 3 % of the continuation (family A's 200 g staircase: 1.027).
     #[test]
     fn a_divider_power_law_is_no_rail_and_a_cut_top_is() {
-        let (mut clean, mut cut, mut gentle) = (0, 0, 0);
+        let (mut least, mut least_gentle, mut near, mut cut) = (f64::INFINITY, f64::INFINITY, 0, 0);
         for n in (0..=13).map(|k| 0.6 + 0.05 * k as f64) {
             for share in (0..=22).map(|k| 0.30 + 0.03 * k as f64) {
                 for w in [10.0, 20.0, 40.0, 100.0, 200.0, 500.0] {
                     for pre in [0.0, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5] {
                         let top_n = 5.0 * w / 1000.0 * 9.80665 + pre;
                         let g = share / (1.0 - share) / f64::powf(top_n, n);
-                        let v: Vec<f64> =
-                            (0..6).map(|k| k as f64 * w / 1000.0 * 9.80665 + pre).map(|f| if f > 0.0 { g * f.powf(n) / (1.0 + g * f.powf(n)) } else { 0.0 }).collect();
+                        let x = |f: f64| if f > 0.0 { g * f.powf(n) } else { 0.0 };
+                        let v: Vec<f64> = (0..6).map(|k| x(k as f64 * w / 1000.0 * 9.80665 + pre)).map(|x| x / (1.0 + x)).collect();
                         let mut inc: Vec<f64> = v.windows(2).map(|p| (p[1] - p[0]) / w).collect();
-                        assert!(!cut_at_the_top(&inc), "n {n} share {share} w {w} pre {pre}: {inc:?}");
-                        clean += 1;
-                        let cont = inc[3] * (inc[3] / inc[2]).min(1.0);
-                        if inc[4] < 1.08 * cont {
-                            gentle += 1;
-                            inc[4] *= 0.88;
+                        let r = continuation_ratio(&inc).expect("a rising staircase");
+                        assert!(!cut_at_the_top(&inc), "n {n} share {share} w {w} pre {pre}: {r}");
+                        least = least.min(r);
+                        if n <= 1.1 + 1e-9 {
+                            least_gentle = least_gentle.min(r);
+                        }
+                        if r <= 1.03 {
+                            near += 1;
+                            inc[4] *= 0.94;
                             cut += usize::from(cut_at_the_top(&inc));
                         }
                     }
                 }
             }
         }
-        assert!(clean > 10_000 && gentle > clean / 2, "{clean} laws, {gentle} gentle");
-        assert_eq!(cut, gentle, "a 12 % cut is seen on every gentle law");
+        assert!(least >= 0.978 && least_gentle >= 0.997, "least {least}, for n ≤ 1.1 {least_gentle}");
+        assert!(near > 1000, "{near} laws within 3 % of the continuation");
+        assert_eq!(cut, near, "a 6 % cut is seen on every law within 3 % of the continuation");
     }
 
     /// Compressed top levels (a conductance exponent of 0.85, the top load at 85 % of the span):
