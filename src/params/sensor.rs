@@ -65,6 +65,10 @@ pub struct Nuisance {
     /// Largest amplitude of the rest relaxation (V; sign and size drawn per trial) and its time constant.
     pub rest_v: f64,
     pub rest_tau_s: f64,
+    /// Every trial starts raised (the sensor still recovering from the loads before it, as a
+    /// sensor rested the same way before each trial is): the rest's size is drawn per trial, its
+    /// sign is not. False: sign and size drawn per trial.
+    pub rest_raised: bool,
     /// AR(1) coefficient of the correlated part of the noise and that part's share of the variance.
     pub noise_ar_rho: f64,
     pub noise_ar_share: f64,
@@ -137,7 +141,7 @@ static HYST: Schema = Schema { fields: || &["fraction", "memory_s"], tables: &[]
 static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s", "warmup_tau_s"], tables: &[] };
 static SAT: Schema = Schema { fields: || &["level_v", "before_noise"], tables: &[] };
-static NUISANCE: Schema = Schema { fields: || &["gain_jitter", "rest_v", "rest_tau_s", "noise_ar_rho", "noise_ar_share"], tables: &[] };
+static NUISANCE: Schema = Schema { fields: || &["gain_jitter", "rest_v", "rest_tau_s", "rest_raised", "noise_ar_rho", "noise_ar_share"], tables: &[] };
 static SPIKES: Schema = Schema { fields: || &["amplitude_v", "duration_s"], tables: &[] };
 static EFFECTS: Schema = Schema {
     fields: || &[],
@@ -258,10 +262,19 @@ impl SensorParams {
             spike_v: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "amplitude_v", 0.0, 0.0, 48.0).unwrap_or(0.0),
             spike_s: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "duration_s", 0.15, 0.001, 10.0).unwrap_or(0.15),
         };
+        let rest_raised = match r.nuisance.as_ref().and_then(|t| t.get("rest_raised")) {
+            None => false,
+            Some(toml::Value::Boolean(b)) => *b,
+            Some(v) => {
+                c.push("nuisance.rest_raised", v, "use true (every trial starts raised, its size drawn) or false (sign and size drawn per trial)");
+                false
+            }
+        };
         let nu = Nuisance {
             gain_jitter: num(&mut c, &r.nuisance, "nuisance", "gain_jitter", 0.0, 0.0, 0.5).unwrap_or(0.0),
             rest_v: num(&mut c, &r.nuisance, "nuisance", "rest_v", 0.0, 0.0, 10.0).unwrap_or(0.0),
             rest_tau_s: num(&mut c, &r.nuisance, "nuisance", "rest_tau_s", 100.0, 0.01, 1e6).unwrap_or(100.0),
+            rest_raised,
             noise_ar_rho: num(&mut c, &r.nuisance, "nuisance", "noise_ar_rho", 0.0, 0.0, 0.999).unwrap_or(0.0),
             noise_ar_share: num(&mut c, &r.nuisance, "nuisance", "noise_ar_share", 0.0, 0.0, 1.0).unwrap_or(0.0),
         };

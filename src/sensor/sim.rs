@@ -163,7 +163,9 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         scaled.g_ref_s *= (1.0 + nu.gain_jitter * rng.normal()).max(0.2);
     }
     let p = &scaled;
+    // the same draw either way (a sensor that rests raised sees the sizes one drawn both ways does)
     let rest_amp = if nu.rest_v > 0.0 { nu.rest_v * (2.0 * rng.uniform() - 1.0) } else { 0.0 };
+    let rest_amp = if nu.rest_raised { rest_amp.abs() } else { rest_amp };
     let share = cover.map(|cv| cv.dome_share).unwrap_or(1.0);
     let force_of = |g: f64| (g + preload_g) / 1000.0 * G_N_PER_KG * share;
     let (mut time, mut clean, mut fo, mut logged) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
@@ -486,6 +488,29 @@ pub(crate) mod tests {
             gap(&fading, late),
             gap(&kept, late)
         );
+    }
+
+    /// Rests of one sign: every trial starts raised by the size a two-signed draw gives (the same
+    /// draws, so the two differ only in sign); and a value other than a boolean is reported with
+    /// its TOML path.
+    #[test]
+    fn rests_of_one_sign_start_every_trial_raised() {
+        let (mut s, p) = defaults();
+        s.noise_v = 0.0;
+        let (_, plain) = simulate(&s, &p, 20.0, None, 1);
+        s.nuisance.rest_v = 0.01;
+        s.nuisance.rest_tau_s = 50.0;
+        let start = |s: &SensorParams, seed: u64| simulate(s, &p, 20.0, None, seed).1.clean_v[0] - plain.clean_v[0];
+        let two_signed: Vec<f64> = (1..=12).map(|seed| start(&s, seed)).collect();
+        s.nuisance.rest_raised = true;
+        let raised: Vec<f64> = (1..=12).map(|seed| start(&s, seed)).collect();
+        assert!(two_signed.iter().any(|&a| a < -1e-4) && two_signed.iter().any(|&a| a > 1e-4), "{two_signed:?}");
+        for (a, r) in two_signed.iter().zip(&raised) {
+            assert!(*r >= 0.0 && (r - a.abs()).abs() < 1e-12, "{a} {r}");
+        }
+        let bad = "[nuisance]\nrest_v = 0.001\nrest_raised = \"yes\"\n";
+        let err = SensorParams::from_source(&SourceFile::parse("s.toml", bad.to_string()).unwrap()).unwrap_err().to_string();
+        assert!(err.contains("nuisance.rest_raised") && err.contains("use true"), "{err}");
     }
 
     #[test]
