@@ -25,7 +25,9 @@ pub(super) fn clipped_segments(trials: &[Trial], clip: f64, rail: bool) -> ClipS
         let mut prev_clipped = false;
         for (s, sg) in tr.segs.iter().enumerate() {
             let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
-            let reaches = tr.t.iter().zip(&tr.v).any(|(&t, &v)| t >= sg.t0 && t < end && v >= clip - at);
+            // at a rail, whose plateau is the rail ± the noise, a step reaches it when its hold ends
+            // there (a lone sample of the hold below it may touch it)
+            let reaches = if rail { ends_at(tr, (sg.t0, end), clip) } else { tr.t.iter().zip(&tr.v).any(|(&t, &v)| t >= sg.t0 && t < end && v >= clip - at) };
             if prev_clipped && sg.load < sg.prev {
                 from.push((k, s));
             } else if reaches && sg.load > sg.prev {
@@ -171,6 +173,28 @@ pub(super) fn clip_fixes(trials: &[Trial], clip: f64, steps: &ClipSteps) -> Vec<
     // is where they leave it, fitted below it with the τ line's τ (part 1 looked for it near the log)
     let from = steps.from.iter().filter(|_| steps.rail).map(|&(k, s)| FixedStep { at: (k, s), tau_s: tau_at(k, s), t0_s: falling_onset(&trials[k], s, tau_at(k, s), clip) });
     into.chain(from).collect()
+}
+
+/// Where a rail's signal may sit on it, per step it shapes: (trial, from where to look, where the
+/// data first read the rail, to; s). A step rising into it: from its fixed onset (the first sample
+/// at or above the rail after it) to the next step's start. A step falling from it: from its start
+/// to its fixed onset, where it leaves the rail, or to the next step's start when its hold ends on
+/// the rail too. `terms::settle_rail_spans` then starts each where the fitted model reaches the rail.
+pub(super) fn rail_spans(trials: &[Trial], clip: f64, steps: &ClipSteps, fixed: &[FixedStep]) -> Vec<(usize, f64, f64, f64)> {
+    let onset = |at: (usize, usize)| fixed.iter().find(|f| f.at == at).map(|f| f.t0_s);
+    let next = |k: usize, s: usize| trials[k].segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+    let rises = steps.into.iter().filter_map(|&(k, s)| {
+        let tr = &trials[k];
+        let start = onset((k, s)).unwrap_or(tr.segs[s].t0);
+        let hit = tr.t.iter().zip(&tr.v).find(|(&t, &v)| t >= start && t < next(k, s) && v >= clip).map(|(&t, _)| t)?;
+        Some((k, start, hit, next(k, s)))
+    });
+    let falls = steps.from.iter().map(|&(k, s)| {
+        let t0 = trials[k].segs[s].t0;
+        let end = if ends_at(&trials[k], (t0, next(k, s)), clip) { next(k, s) } else { onset((k, s)).unwrap_or(t0) };
+        (k, t0, t0, end)
+    });
+    rises.chain(falls).collect()
 }
 
 pub(super) fn clip_level(trials: &[Trial]) -> Option<f64> {

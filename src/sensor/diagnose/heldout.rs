@@ -75,7 +75,7 @@ pub(super) fn trial_terms_halves(d: &Design, k: usize, tr: &Trial, xk: &[f64], c
     let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
     for j in 0..tr.t.len() {
         let seg = tr.segs.iter().filter(|s| s.t0 <= tr.t[j]).count();
-        if (seg == 0 && tr.t[j] >= t_first - 0.2) || at_jump(tr, tr.t[j]) || !usable(tr, j, cfg) {
+        if (seg == 0 && tr.t[j] >= t_first - 0.2) || at_jump(tr, tr.t[j]) || !usable(k, tr, j, cfg) {
             continue;
         }
         let e = tr.v[j] - predict(d, k, tr, tr.t[j], &x, cfg, hat, &mut buf);

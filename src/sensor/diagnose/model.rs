@@ -74,6 +74,12 @@ pub(super) struct Config {
     /// clip on a first-order fall from the clip itself (their part-1 fits are of that fall), so they
     /// restart at the clip: v = L_next·u + clip·(1 − u).
     pub(super) restart: Vec<(usize, usize)>,
+    /// With an amplifier's rail: the spans (trial, from, to; s) where the model sits on it, from
+    /// where a step rising into it first reads it to where the next step leaves it. Only these
+    /// samples are left out of the fit: min(model, rail) is flat in the model there (the
+    /// Gauss–Newton step of the clip), and elsewhere the samples are the model ± a noise the
+    /// rail did not cut (`usable`).
+    pub(super) rail_spans: Vec<(usize, f64, f64)>,
     /// With the relaxation spectrum: its grid, the load's ramp and the smoothness penalty.
     pub(super) relax: Option<Relax>,
     /// A gain per trial (all but the first): the trials' step sizes differ by a factor (the
@@ -214,6 +220,7 @@ impl Config {
             drive: Drive::Change,
             clip: None,
             tau_fixed: vec![],
+            rail_spans: vec![],
             restart: vec![],
             relax: None,
             gains: false,
@@ -608,8 +615,16 @@ pub(super) fn clip_offset(i: usize, tr: &Trial, t: f64, cfg: &Config) -> f64 {
         .sum()
 }
 
-pub(super) fn usable(tr: &Trial, j: usize, cfg: &Config) -> bool {
+/// Whether sample `j` of trial `i` is fitted. With a clip of the ADC's (after the noise) only
+/// below it by the raw noise's margin: a clipped sample says only that the model reaches the clip,
+/// and the clipped raw samples bend a filtered mean near it. With an amplifier's rail (before the
+/// noise) nothing is cut after it: every sample but those where the model sits on the rail
+/// ([`Config::rail_spans`]). (With the ADC's rule at a rail, the samples of its plateau below it by
+/// the margin are the noise's low side, and under 15 mV of noise a rise into it had almost no other
+/// sample left: the top level came out at the one below and the clip's model lost 174 % held out.)
+pub(super) fn usable(i: usize, tr: &Trial, j: usize, cfg: &Config) -> bool {
     match cfg.clip {
+        Some(_) if cfg.clip_rail => !cfg.rail_spans.iter().any(|&(k, a, b)| k == i && tr.t[j] >= a && tr.t[j] < b),
         Some(c) => tr.v[j] < c - tr.clip_margin.max(0.5 * tr.sigma).max(1e-12),
         None => true,
     }

@@ -55,7 +55,7 @@ pub(super) fn accumulate(d: &Design, trials: &[Trial], rows: &[(usize, usize)], 
     let mut nz: Vec<usize> = Vec::with_capacity(p);
     for &(i, j) in rows {
         let tr = &trials[i];
-        if !usable(tr, j, cfg) {
+        if !usable(i, tr, j, cfg) {
             continue;
         }
         d.row(i, tr, tr.t[j], cfg, hat, &mut r);

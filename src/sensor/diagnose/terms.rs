@@ -81,6 +81,10 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
             c.tau_fixed = clip.map(|level| clip_fixes(trials, level, clip_steps)).unwrap_or_default();
             c.restart = clip_steps.from.clone();
             c.clip_rail = clip_steps.rail;
+            if let (Some(level), true) = (clip, clip_steps.rail) {
+                let windows = rail_spans(trials, level, clip_steps, &c.tau_fixed);
+                settle_rail_spans(d, trials, &mut c, hat, &windows);
+            }
             vec![c]
         }
         _ => {
@@ -192,6 +196,35 @@ pub(super) fn through_exactly(d: &Design, trials: &[Trial], hat: &Hat, (mut c, m
     (c, b0)
 }
 
+/// A rail's spans where the fitted model sits on it: from the data's first reading of the rail
+/// after each rising step's onset (`windows`: trial, onset, that reading, where the next step leaves
+/// the rail), then, fitted without those samples, from where the model reaches the rail (none where
+/// it stays under it: min(model, rail) is the model there, and its samples are fitted), a few
+/// times over (Gauss–Newton steps of the clip, each a linear fit).
+fn settle_rail_spans(d: &Design, trials: &[Trial], c: &mut Config, hat: &Hat, windows: &[(usize, f64, f64, f64)]) {
+    let Some(rail) = c.clip else { return };
+    c.rail_spans = windows.iter().map(|&(k, _, hit, end)| (k, hit, end)).collect();
+    let mut buf = Vec::new();
+    for _ in 0..RAIL_ITERATIONS {
+        let Some(x) = solve(d, trials, &all_rows(trials), c, hat) else { return };
+        let next: Vec<(usize, f64, f64)> = windows
+            .iter()
+            .filter_map(|&(k, onset, _, end)| {
+                let tr = &trials[k];
+                let on = (0..tr.t.len()).find(|&j| tr.t[j] >= onset && tr.t[j] < end && predict(d, k, tr, tr.t[j], &x, c, hat, &mut buf) >= rail)?;
+                Some((k, tr.t[on], end))
+            })
+            .collect();
+        if next == c.rail_spans {
+            return;
+        }
+        c.rail_spans = next;
+    }
+}
+
+/// Gauss–Newton steps of a rail's clip at most ([`settle_rail_spans`]).
+const RAIL_ITERATIONS: usize = 4;
+
 /// Iterations of [`through_exactly`] at most.
 const THROUGH_ITERATIONS: usize = 4;
 
@@ -203,6 +236,7 @@ pub(super) fn without(cur: &Config, idx: usize) -> Config {
     if e == Effect::Saturation {
         c.clip = None;
         c.tau_fixed.clear();
+        c.rail_spans.clear();
         c.restart.clear();
         c.clip_rail = false;
     }
