@@ -75,7 +75,8 @@ pub(super) struct Config {
     /// restart at the clip: v = L_next·u + clip·(1 − u).
     pub(super) restart: Vec<(usize, usize)>,
     /// With an amplifier's rail: the spans (trial, from, to; s) where the model sits on it, from
-    /// where a step rising into it first reads it to where the next step leaves it. Only these
+    /// where the fitted model reaches it to where the next step leaves it (`terms::settle_rail_spans`;
+    /// settled once, when the clip is proposed). Only these
     /// samples are left out of the fit: min(model, rail) is flat in the model there (the
     /// Gauss–Newton step of the clip), and elsewhere the samples are the model ± a noise the
     /// rail did not cut (`usable`).

@@ -196,11 +196,13 @@ pub(super) fn through_exactly(d: &Design, trials: &[Trial], hat: &Hat, (mut c, m
     (c, b0)
 }
 
-/// A rail's spans where the fitted model sits on it: from the data's first reading of the rail
-/// after each rising step's onset (`windows`: trial, onset, that reading, where the next step leaves
-/// the rail), then, fitted without those samples, from where the model reaches the rail (none where
-/// it stays under it: min(model, rail) is the model there, and its samples are fitted), a few
-/// times over (Gauss–Newton steps of the clip, each a linear fit).
+/// A rail's spans where the fitted model sits on it, per window (`windows`: trial, where to look
+/// from, where the data first read the rail, to; a rise into the rail or a fall from it, from
+/// `clip::rail_spans`): first from the data's reading, then, fitted without those samples, from
+/// where the model reaches the rail (none where it stays under it: min(model, rail) is the model
+/// there, and its samples are fitted), at most [`RAIL_ITERATIONS`] times (Gauss–Newton steps of
+/// the clip, each a linear fit). It stops when the spans no longer move, or after the last step
+/// without a check that they converged.
 fn settle_rail_spans(d: &Design, trials: &[Trial], c: &mut Config, hat: &Hat, windows: &[(usize, f64, f64, f64)]) {
     let Some(rail) = c.clip else { return };
     c.rail_spans = windows.iter().map(|&(k, _, hit, end)| (k, hit, end)).collect();
@@ -288,12 +290,14 @@ mod tests {
         }
     }
 
-    /// An amplifier's rail under a noise larger than the rise left below it (40 g steps, 15 mV of
-    /// noise, the rail 45 mV under the top level): the clip's model sits on the rail through the
-    /// top holds (their settled mean within a third of the noise of it) and predicts the held-out data within 5 % of
-    /// the model without it (the corner it adds is a few samples under this noise). Fitted with the ADC's rule (only the samples under the
-    /// rail by twice the raw noise), the top level came out near the one below it: 36 mV under the
-    /// rail, and 174 % worse held out on the bench's first such case.
+    /// An amplifier's rail under a noise whose ADC margin (twice the raw noise, 30 mV) takes most
+    /// of the rise into it (40 g steps, 15 mV of noise, the rail 45 mV under the top level, about as
+    /// far above the level below): the clip's model sits on the rail through the top holds (their
+    /// settled mean within a third of the noise of it) and predicts the held-out data within 5 % of
+    /// the model without it (the corner it adds is a few samples under this noise). Fitted with the
+    /// ADC's rule (only the samples under the rail by twice the raw noise), the top level came out
+    /// near the one below it: 34 mV under the rail, and 174 % worse held out on the bench's first
+    /// such case.
     #[test]
     fn a_rail_under_a_large_noise_is_fitted_on_it() {
         let noisy = |s: &mut crate::params::sensor::SensorParams| s.noise_v = 0.015;
