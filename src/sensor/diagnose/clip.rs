@@ -183,11 +183,12 @@ pub(super) fn clip_fixes(trials: &[Trial], clip: f64, steps: &ClipSteps) -> Vec<
 pub(super) fn rail_spans(trials: &[Trial], clip: f64, steps: &ClipSteps, fixed: &[FixedStep]) -> Vec<(usize, f64, f64, f64)> {
     let onset = |at: (usize, usize)| fixed.iter().find(|f| f.at == at).map(|f| f.t0_s);
     let next = |k: usize, s: usize| trials[k].segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
-    let rises = steps.into.iter().filter_map(|&(k, s)| {
+    let rises = steps.into.iter().map(|&(k, s)| {
         let tr = &trials[k];
         let start = onset((k, s)).unwrap_or(tr.segs[s].t0);
-        let hit = tr.t.iter().zip(&tr.v).find(|(&t, &v)| t >= start && t < next(k, s) && v >= clip).map(|(&t, _)| t)?;
-        Some((k, start, hit, next(k, s)))
+        // none read the rail: the window is kept, its span empty until the model reaches the rail
+        let hit = tr.t.iter().zip(&tr.v).find(|(&t, &v)| t >= start && t < next(k, s) && v >= clip).map_or(next(k, s), |(&t, _)| t);
+        (k, start, hit, next(k, s))
     });
     let falls = steps.from.iter().map(|&(k, s)| {
         let t0 = trials[k].segs[s].t0;

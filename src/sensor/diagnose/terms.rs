@@ -201,26 +201,37 @@ pub(super) fn through_exactly(d: &Design, trials: &[Trial], hat: &Hat, (mut c, m
 /// `clip::rail_spans`): first from the data's reading, then, fitted without those samples, from
 /// where the model reaches the rail (none where it stays under it: min(model, rail) is the model
 /// there, and its samples are fitted), at most [`RAIL_ITERATIONS`] times (Gauss–Newton steps of
-/// the clip, each a linear fit). It stops when the spans no longer move, or after the last step
-/// without a check that they converged.
+/// the clip, each a linear fit), until the spans no longer move. Of the spans fitted, those whose
+/// fit leaves the least squared error of min(model, rail) over every sample are kept (the steps
+/// may alternate when a level sits at the rail).
 fn settle_rail_spans(d: &Design, trials: &[Trial], c: &mut Config, hat: &Hat, windows: &[(usize, f64, f64, f64)]) {
     let Some(rail) = c.clip else { return };
     c.rail_spans = windows.iter().map(|&(k, _, hit, end)| (k, hit, end)).collect();
+    let rows = all_rows(trials);
     let mut buf = Vec::new();
+    // the spans whose fit leaves the least squared error of min(model, rail) over every sample
+    let mut best: Option<(f64, Vec<(usize, f64, f64)>)> = None;
     for _ in 0..RAIL_ITERATIONS {
-        let Some(x) = solve(d, trials, &all_rows(trials), c, hat) else { return };
+        let Some(x) = solve(d, trials, &rows, c, hat) else { break };
+        let rss: f64 = rows.iter().map(|&(i, j)| (trials[i].v[j] - predict(d, i, &trials[i], trials[i].t[j], &x, c, hat, &mut buf)).powi(2)).sum();
+        if best.as_ref().is_none_or(|b| rss < b.0) {
+            best = Some((rss, c.rail_spans.clone()));
+        }
         let next: Vec<(usize, f64, f64)> = windows
             .iter()
-            .filter_map(|&(k, onset, _, end)| {
+            .filter_map(|&(k, from, _, end)| {
                 let tr = &trials[k];
-                let on = (0..tr.t.len()).find(|&j| tr.t[j] >= onset && tr.t[j] < end && predict(d, k, tr, tr.t[j], &x, c, hat, &mut buf) >= rail)?;
+                let on = (0..tr.t.len()).find(|&j| tr.t[j] >= from && tr.t[j] < end && predict(d, k, tr, tr.t[j], &x, c, hat, &mut buf) >= rail)?;
                 Some((k, tr.t[on], end))
             })
             .collect();
         if next == c.rail_spans {
-            return;
+            break;
         }
         c.rail_spans = next;
+    }
+    if let Some((_, spans)) = best {
+        c.rail_spans = spans;
     }
 }
 
