@@ -194,6 +194,18 @@ fn num(c: &mut Collector, t: &Option<Table>, table: &str, key: &str, default: f6
     c.or_within(v, default, &path, lo, hi)
 }
 
+/// A switch `table.key`: absent is false; anything but a boolean is a problem, with `fix`.
+fn flag(c: &mut Collector, t: &Option<Table>, table: &str, key: &str, fix: &str) -> bool {
+    match t.as_ref().and_then(|t| t.get(key)) {
+        None => false,
+        Some(toml::Value::Boolean(b)) => *b,
+        Some(v) => {
+            c.push(&format!("{table}.{key}"), v, fix);
+            false
+        }
+    }
+}
+
 impl SensorParams {
     pub fn from_source(src: &SourceFile) -> Result<SensorParams> {
         let mut c = Collector::new(src);
@@ -232,18 +244,11 @@ impl SensorParams {
         let ctau = num(&mut c, &r.cover, "cover", "tau_s", 5.0, 0.001, 1e5);
         let ef = r.effects.clone().unwrap_or_default();
         let e = |name: &str| ef.get(name).cloned();
-        // a switch of an effect's table: absent is false; anything but a boolean is a problem
-        let mut flag = |table: &str, key: &str, fix: &str| match e(table).as_ref().and_then(|t| t.get(key)) {
-            None => false,
-            Some(toml::Value::Boolean(b)) => *b,
-            Some(v) => {
-                c.push(&format!("effects.{table}.{key}"), v, fix);
-                false
-            }
-        };
-        let before_noise = flag("saturation", "before_noise", "use true (an amplifier's rail, before the noise) or false (the ADC's reference, after it)");
-        let superposed = flag("creep", "superposed", "use true (each change's creep keeps going after later changes) or false (creep restarts at every step)");
-        let in_conductance = flag("creep", "in_conductance", "use true (the conductance creeps, seen through the read-out) or false (the response creeps)");
+        // a switch of an effect's table
+        let mut switch = |table: &str, key: &str, fix: &str| flag(&mut c, &e(table), &format!("effects.{table}"), key, fix);
+        let before_noise = switch("saturation", "before_noise", "use true (an amplifier's rail, before the noise) or false (the ADC's reference, after it)");
+        let superposed = switch("creep", "superposed", "use true (each change's creep keeps going after later changes) or false (creep restarts at every step)");
+        let in_conductance = switch("creep", "in_conductance", "use true (the conductance creeps, seen through the read-out) or false (the response creeps)");
         let eff = Effects {
             saturation_before_noise: before_noise,
             creep_superposed: superposed,
@@ -262,14 +267,7 @@ impl SensorParams {
             spike_v: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "amplitude_v", 0.0, 0.0, 48.0).unwrap_or(0.0),
             spike_s: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "duration_s", 0.15, 0.001, 10.0).unwrap_or(0.15),
         };
-        let rest_raised = match r.nuisance.as_ref().and_then(|t| t.get("rest_raised")) {
-            None => false,
-            Some(toml::Value::Boolean(b)) => *b,
-            Some(v) => {
-                c.push("nuisance.rest_raised", v, "use true (every trial starts raised, its size drawn) or false (sign and size drawn per trial)");
-                false
-            }
-        };
+        let rest_raised = flag(&mut c, &r.nuisance, "nuisance", "rest_raised", "use true (every trial starts raised, its size drawn) or false (sign and size drawn per trial)");
         let nu = Nuisance {
             gain_jitter: num(&mut c, &r.nuisance, "nuisance", "gain_jitter", 0.0, 0.0, 0.5).unwrap_or(0.0),
             rest_v: num(&mut c, &r.nuisance, "nuisance", "rest_v", 0.0, 0.0, 10.0).unwrap_or(0.0),

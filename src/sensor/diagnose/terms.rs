@@ -213,7 +213,9 @@ fn settle_rail_spans(d: &Design, trials: &[Trial], c: &mut Config, hat: &Hat, wi
     let mut best: Option<(f64, Vec<(usize, f64, f64)>)> = None;
     for _ in 0..RAIL_ITERATIONS {
         let Some(x) = solve(d, trials, &rows, c, hat) else { break };
-        let rss: f64 = rows.iter().map(|&(i, j)| (trials[i].v[j] - predict(d, i, &trials[i], trials[i].t[j], &x, c, hat, &mut buf)).powi(2)).sum();
+        // each trial's prediction once: for the error and for where it reaches the rail
+        let pred: Vec<Vec<f64>> = trials.iter().enumerate().map(|(i, tr)| tr.t.iter().map(|&t| predict(d, i, tr, t, &x, c, hat, &mut buf)).collect()).collect();
+        let rss: f64 = trials.iter().zip(&pred).flat_map(|(tr, p)| tr.v.iter().zip(p).map(|(v, q)| (v - q).powi(2))).sum();
         if best.as_ref().is_none_or(|b| rss < b.0) {
             best = Some((rss, c.rail_spans.clone()));
         }
@@ -221,7 +223,7 @@ fn settle_rail_spans(d: &Design, trials: &[Trial], c: &mut Config, hat: &Hat, wi
             .iter()
             .filter_map(|&(k, from, _, end)| {
                 let tr = &trials[k];
-                let on = (0..tr.t.len()).find(|&j| tr.t[j] >= from && tr.t[j] < end && predict(d, k, tr, tr.t[j], &x, c, hat, &mut buf) >= rail)?;
+                let on = (0..tr.t.len()).find(|&j| tr.t[j] >= from && tr.t[j] < end && pred[k][j] >= rail)?;
                 Some((k, tr.t[on], end))
             })
             .collect();
