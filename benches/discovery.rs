@@ -154,7 +154,9 @@ const RAIL_BY_RMS_200_LAB: &str = "the same (200 g) with the trial nuisances and
 const RAIL_BY_RMS_40_NOISY: &str = "a rail before the noise at 1σ RMS, 40 g steps, noise ×5 (15 mV)";
 const RAIL_BY_RMS_200_NOISY: &str = "a rail before the noise at 1σ RMS, 200 g steps, noise ×5 (15 mV)";
 /// The rows whose rail is set by its RMS, as every other effect's (not by `rail_case`).
-const RAILS_BY_RMS: [&str; 6] = [RAIL_BY_RMS_40, RAIL_BY_RMS_200, RAIL_BY_RMS_40_LAB, RAIL_BY_RMS_200_LAB, RAIL_BY_RMS_40_NOISY, RAIL_BY_RMS_200_NOISY];
+const B_FORMS_40: &str = "family B's forms under 5× the noise, touch + trial nuisances, 40 s holds, 40 g steps";
+const B_FORMS_200: &str = "family B's forms under 5× the noise, touch + trial nuisances, 40 s holds, 200 g steps";
+const RAILS_BY_RMS: [&str; 8] = [RAIL_BY_RMS_40, RAIL_BY_RMS_200, RAIL_BY_RMS_40_LAB, RAIL_BY_RMS_200_LAB, RAIL_BY_RMS_40_NOISY, RAIL_BY_RMS_200_NOISY, B_FORMS_40, B_FORMS_200];
 /// The variation without a preload.
 const NO_PRELOAD: &str = "no preload: the zero-load level at the ADC's floor (0 V)";
 
@@ -424,6 +426,12 @@ fn main() {
                 s.nuisance.rest_raised = true
             }),
         ),
+        // family B's forms and conditions in family A's physics (stop 44): the conductance's creep
+        // superposed and seen through the divider, hysteresis whose memory fades (240 s), a warm-up
+        // drift (300 s), a rail before the noise set by its RMS, under five times the noise, with a
+        // hand's touch and the trial nuisances (rests of one sign), 40 s holds; on 40 g and 200 g
+        (B_FORMS_40, b_forms(40.0)),
+        (B_FORMS_200, b_forms(200.0)),
     ];
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {
@@ -537,6 +545,25 @@ fn rail_by_rms(weight_g: f64, lab: bool) -> Box<dyn Fn(&mut SensorParams, &mut P
             p.touch_s = 0.5;
             p.press_fraction = 0.12
         }
+    })
+}
+
+/// A variation with family B's forms of every effect (docs/sim-family-b.md) in family A's physics, on
+/// steps of `weight_g`: the conductance's creep superposed over the load history, a fading memory
+/// of the peak, a warm-up drift, a rail before the noise (set by its RMS), five times the noise, a
+/// hand's touch with its press, the trials' nuisances with rests of one sign, 40 s holds.
+fn b_forms(weight_g: f64) -> Box<dyn Fn(&mut SensorParams, &mut ProtocolParams)> {
+    Box::new(move |s, p| {
+        rail_by_rms(weight_g, true)(s, p);
+        s.noise_v *= 5.0;
+        s.nuisance.rest_v = 2.0 * s.noise_v;
+        s.nuisance.rest_raised = true;
+        s.effects.creep_superposed = true;
+        s.effects.creep_in_conductance = true;
+        s.effects.hysteresis_memory_s = 240.0;
+        s.effects.drift_warmup_tau_s = 300.0;
+        p.hold_s = 40.0;
+        p.top_hold_s = 40.0
     })
 }
 

@@ -9,7 +9,9 @@
 //!
 //! A name stands alone when this drop-one test finds no alternative. A drift that is a warm-up
 //! shared by the trials is also set against the same decay fitted per trial (`rest_relaxation`, a
-//! nuisance): listed when the shared form does not predict better by Z_SEPARATE.
+//! nuisance): listed when the shared form does not predict better by Z_SEPARATE, and taken in its
+//! place when the trials do not agree on the warm-up's size (`nuisance::shared_by_the_trials`, a
+//! random effect's test), with the drift kept beside the rests when it still passes on them.
 //!
 //! The relaxation spectrum is not tried in a term's place: on family A it stood in for every term
 //! (a pure second time constant, a hysteresis and a drift each got a spectrum "creep" as an
@@ -126,6 +128,15 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
                         first_order: first_order_part(ctx.d, &c, &x, ctx.trials),
                     });
                 }
+            }
+        }
+        // a warm-up whose size the trials do not agree on: the trials' rest states (the random
+        // effect's test, `nuisance::shared_by_the_trials`)
+        // (and whichever route took the rests, the drift is tried again beside them)
+        if let (Effect::BaselineDrift, Some(tau), None) = (named, cur.drift_tau, cur.rest_tau) {
+            let rests_won = better.as_ref().is_some_and(|b| b.effect == Effect::RestRelaxation);
+            if rests_won || (better.is_none() && !nuisance::shared_by_the_trials(ctx.d, ctx.trials, &wo, tau, ctx.hat)) {
+                better = nuisance::in_its_place(&wo, cur_score, ctx).or(better);
             }
         }
         out.push((named, alts, better));
@@ -305,6 +316,40 @@ mod tests {
             let alts = alternatives(&c, &s, &ctx);
             let better = alts.iter().find(|(e, ..)| *e == Effect::BaselineDrift).and_then(|(_, _, b)| b.as_ref());
             assert_eq!(better.map(|b| b.effect), want.then_some(Effect::RestRelaxation), "{amps:?}: {:?}", better.map(|b| (b.effect, b.z)));
+        }
+    }
+
+    /// The random effect's route (`nuisance::shared_by_the_trials`, `nuisance::in_its_place`), on
+    /// trials of 60 s holds. Rests of one sign whose sizes the trials do not agree on (10, 25 and
+    /// 40 mV, τ 60 s), fitted as a warm-up shared by the trials: the rests take its place (a
+    /// nuisance). The same rests beside a warm-up the trials share (30 mV, τ 160 s): the drift is
+    /// tried again on the rests and stands with them.
+    #[test]
+    fn a_warm_up_the_trials_disagree_on_is_their_rests_unless_it_stands_beside_them() {
+        for (drift_v, want) in [(0.0, Effect::RestRelaxation), (0.03, Effect::BaselineDrift)] {
+            let mut recs = fixture::recs_with(
+                74_200,
+                |_| {},
+                |p| {
+                    p.hold_s = 60.0;
+                    p.top_hold_s = 60.0
+                },
+            );
+            for (r, a) in recs.iter_mut().zip([0.010, 0.025, 0.040]) {
+                let t0 = r.time_s[0];
+                r.response.iter_mut().zip(&r.time_s).for_each(|(v, t)| *v += a * (-(t - t0) / 60.0).exp() + drift_v * (1.0 - (-(t - t0) / 160.0).exp()));
+            }
+            let b = fixture::built(&recs);
+            let steps = ClipSteps::of(&b.trials, None, false);
+            let ctx = fixture::ctx(&b, &steps, &b.hat);
+            let mut c = b.base_cfg.clone();
+            c.effects.push(Effect::BaselineDrift);
+            c.drift_tau = Some(160.0);
+            let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
+            let alts = alternatives(&c, &s, &ctx);
+            let better = alts.iter().find(|(e, ..)| *e == Effect::BaselineDrift).and_then(|(_, _, b)| b.as_ref()).expect("a better explanation");
+            assert_eq!(better.effect, want, "drift {drift_v}: z {} {:?}", better.z, better.cfg.rest_tau);
+            assert!(better.cfg.rest_tau.is_some() && (better.cfg.drift_tau.is_some() == (want == Effect::BaselineDrift)), "drift {drift_v}: {:?}", better.cfg);
         }
     }
 

@@ -118,9 +118,107 @@ pub(super) fn beats_its_shared_form(d: &Design, trials: &[Trial], c: &Config, s:
     gain >= MIN_ROBUST_GAIN && paired_z(&sh.units, &s.units) >= MIN_Z
 }
 
+/// Student's t that a one-sided test at 1 % needs, for 1 to 9 degrees of freedom (the normal's
+/// 2.33 beyond).
+const T_ONE_PERCENT: [f64; 9] = [31.82, 6.965, 4.541, 3.747, 3.365, 3.143, 2.998, 2.896, 2.821];
+
+/// Whether a decay from each trial's start with time constant `tau` (a warm-up of the read-out, in
+/// the model `wo` without it) is one the trials share, as a random effect's test sees it: fitted per
+/// trial (its amplitudes, on every sample, with the trials' offsets and gains), the amplitudes'
+/// mean differs from zero by Student's t at 1 % over their spread between the trials. A decay whose
+/// size the trials do not agree on (each started from its own rest) has a mean its spread does not
+/// separate from nothing: the guide's two hypotheses, a term shared by all trials and one fitted
+/// per trial, told apart by the trials themselves. (Held out, the two cannot be set side by side
+/// fairly: a per-trial term is validated inside its own trial, which favours it by its own noise;
+/// restricted to the samples before the first unloading, it loses by the confound with the gains.)
+pub(super) fn shared_by_the_trials(d: &Design, trials: &[Trial], wo: &Config, tau: f64, hat: &Hat) -> bool {
+    if d.prior || trials.len() < 2 {
+        return true;
+    }
+    let mut c = wo.clone();
+    c.effects.push(Effect::RestRelaxation);
+    c.rest_tau = Some(tau);
+    let Some((_, x)) = train_bic(d, trials, &c, hat) else { return true };
+    let amps: Vec<f64> = (0..trials.len()).map(|k| x[d.rest_col(&c) + k]).collect();
+    t_over_spread(&amps) >= T_ONE_PERCENT.get(amps.len() - 2).copied().unwrap_or(2.33)
+}
+
+/// The one-sample t of `a`: |mean| over its standard error from the spread (infinite when the
+/// values agree exactly and are not all zero).
+fn t_over_spread(a: &[f64]) -> f64 {
+    let n = a.len() as f64;
+    let mean = a.iter().sum::<f64>() / n;
+    let sd = (a.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    if sd == 0.0 {
+        return if mean == 0.0 { 0.0 } else { f64::INFINITY };
+    }
+    mean.abs() / (sd / n.sqrt())
+}
+
+/// The trials' rest states in a shared term's place (model `wo` without it, scored `cur_score` with
+/// it): their time constant chosen on the training fit as the forward step chooses it; taken when it
+/// explains the residual against `wo` (lower held-out error, paired z ≥ MIN_Z), as every
+/// alternative must.
+///
+/// A drift may still act beside the rest states (a warm-up shared by trials that rested
+/// differently): the drift is tried again with them, the two time constants chosen together on the
+/// training fit, and when it passes the forward step's rule on the rests alone, both stand (the
+/// better explanation is then the drift with the rests beside it).
+pub(super) fn in_its_place(wo: &Config, cur_score: &Score, ctx: &Ctx) -> Option<alternatives::Better> {
+    let c = candidate(Effect::RestRelaxation, wo, ctx)?;
+    let (s_wo, _) = score(ctx.d, ctx.trials, wo, ctx.hat)?;
+    let (s, x) = score(ctx.d, ctx.trials, &c, ctx.hat)?;
+    let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
+    if !explains {
+        return None;
+    }
+    let beside = drift_beside_rests(wo, ctx).and_then(|cd| {
+        let (sd, xd) = score(ctx.d, ctx.trials, &cd, ctx.hat)?;
+        let passes =
+            sd.heldout_rmse < s.heldout_rmse && paired_z(&s.units, &sd.units) >= MIN_Z && sd.bic - s.bic <= MIN_DBIC && of_its_sign(ctx.d, &cd, &xd, Effect::BaselineDrift);
+        passes.then_some((cd, sd, xd))
+    });
+    Some(match beside {
+        Some((cd, sd, xd)) => alternatives::Better { effect: Effect::BaselineDrift, z: -paired_z(&sd.units, &cur_score.units), cfg: cd, score: sd, x: xd },
+        None => alternatives::Better { effect: Effect::RestRelaxation, z: -paired_z(&s.units, &cur_score.units), cfg: c, score: s, x },
+    })
+}
+
+/// A drift and the trials' rest states together on `wo`, the rests' time constant and the drift's
+/// form chosen jointly on the training fit (the least BIC).
+fn drift_beside_rests(wo: &Config, ctx: &Ctx) -> Option<Config> {
+    let mut best: Option<(Config, f64)> = None;
+    for r in rest_candidates(ctx.d, ctx.trials, wo) {
+        let Some(cd) = candidate(Effect::BaselineDrift, &r, ctx) else { continue };
+        let Some((b, _)) = train_bic(ctx.d, ctx.trials, &cd, ctx.hat) else { continue };
+        if best.as_ref().is_none_or(|x| b < x.1) {
+            best = Some((cd, b));
+        }
+    }
+    best.map(|x| x.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The random effect's test: a decay from each trial's start that the trials share (8 mV each,
+    /// τ 60 s) is shared; rests of one sign but of different sizes (4, 8 and 12 mV) are not, though
+    /// their mean is far from zero; and none at all is not.
+    #[test]
+    fn a_decay_is_shared_only_when_the_trials_agree_on_its_size() {
+        for (amps, want) in [([0.008; 3], true), ([0.004, 0.008, 0.012], false), ([0.0; 3], false)] {
+            let mut recs = fixture::recs(74_100, |_| {});
+            for (r, a) in recs.iter_mut().zip(amps) {
+                let t0 = r.time_s[0];
+                r.response.iter_mut().zip(&r.time_s).for_each(|(v, t)| *v += a * (-(t - t0) / 60.0).exp());
+            }
+            let b = fixture::built(&recs);
+            assert_eq!(shared_by_the_trials(&b.d, &b.trials, &b.base_cfg, 60.0, &b.hat), want, "{amps:?}");
+        }
+        assert_eq!(t_over_spread(&[1.0, 1.0]), f64::INFINITY);
+        assert!((t_over_spread(&[4.0, 8.0, 12.0]) - 8.0 / (4.0 / 3f64.sqrt())).abs() < 1e-12);
+    }
 
     /// Trials whose gains differ by ±5 % get a gain per trial, validated inside each held-out
     /// trial; trials of one gain do not.

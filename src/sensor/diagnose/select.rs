@@ -263,6 +263,10 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
                 as_rest_state(&mut findings, &mut nuisances, replaced[0], b, &cur_score, d, &hat);
             } else {
                 rename(&mut findings, replaced[0], b, &cur_score, d, &hat);
+                // a drift that stands beside the trials' rest states brings them in (`nuisance::in_its_place`)
+                if b.cfg.rest_tau.is_some() && cur.rest_tau.is_none() {
+                    nuisances.push(nuisance::as_nuisance(Effect::RestRelaxation, term_params(d, &b.cfg, &b.x, Effect::RestRelaxation, &hat), &cur_score, &b.score, b.z));
+                }
             }
             decisions.push(Decision {
                 stage: "renamed",
