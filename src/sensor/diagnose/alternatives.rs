@@ -293,6 +293,19 @@ pub fn sentence(effect: &str, alts: &[Alternative]) -> Option<String> {
 mod tests {
     use super::*;
 
+    /// The better explanation honest naming finds for a warm-up drift with time constant `tau`
+    /// fitted to `recs`.
+    fn better_than_a_drift(recs: &[Recording], tau: f64) -> Option<Better> {
+        let b = fixture::built(recs);
+        let steps = ClipSteps::of(&b.trials, None, false);
+        let ctx = fixture::ctx(&b, &steps, &b.hat);
+        let mut c = b.base_cfg.clone();
+        c.effects.push(Effect::BaselineDrift);
+        c.drift_tau = Some(tau);
+        let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
+        alternatives(&c, &s, &ctx).into_iter().find(|(e, ..)| *e == Effect::BaselineDrift).and_then(|(_, _, b)| b)
+    }
+
     /// A warm-up shared by the trials set against the trials' own rest states: when the trials
     /// start from rests of one sign but of different sizes (4, 8 and 12 mV decaying with τ 60 s),
     /// the per-trial form predicts clearly better than the shared one and is the drift's better
@@ -301,21 +314,9 @@ mod tests {
     #[test]
     fn a_drift_the_trials_own_rests_predict_better_is_their_rest() {
         for (amps, want) in [([0.004, 0.008, 0.012], true), ([0.008, 0.008, 0.008], false)] {
-            let mut recs = fixture::recs(74_000, |_| {});
-            for (r, a) in recs.iter_mut().zip(amps) {
-                let t0 = r.time_s[0];
-                r.response.iter_mut().zip(&r.time_s).for_each(|(v, t)| *v += a * (-(t - t0) / 60.0).exp());
-            }
-            let b = fixture::built(&recs);
-            let steps = ClipSteps::of(&b.trials, None, false);
-            let ctx = fixture::ctx(&b, &steps, &b.hat);
-            let mut c = b.base_cfg.clone();
-            c.effects.push(Effect::BaselineDrift);
-            c.drift_tau = Some(60.0);
-            let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
-            let alts = alternatives(&c, &s, &ctx);
-            let better = alts.iter().find(|(e, ..)| *e == Effect::BaselineDrift).and_then(|(_, _, b)| b.as_ref());
-            assert_eq!(better.map(|b| b.effect), want.then_some(Effect::RestRelaxation), "{amps:?}: {:?}", better.map(|b| (b.effect, b.z)));
+            let recs = fixture::with_decays(fixture::recs(74_000, |_| {}), amps, 60.0, (0.0, 1.0));
+            let better = better_than_a_drift(&recs, 60.0);
+            assert_eq!(better.as_ref().map(|b| b.effect), want.then_some(Effect::RestRelaxation), "{amps:?}: {:?}", better.map(|b| (b.effect, b.z)));
         }
     }
 
@@ -327,27 +328,9 @@ mod tests {
     #[test]
     fn a_warm_up_the_trials_disagree_on_is_their_rests_unless_it_stands_beside_them() {
         for (drift_v, want) in [(0.0, Effect::RestRelaxation), (0.03, Effect::BaselineDrift)] {
-            let mut recs = fixture::recs_with(
-                74_200,
-                |_| {},
-                |p| {
-                    p.hold_s = 60.0;
-                    p.top_hold_s = 60.0
-                },
-            );
-            for (r, a) in recs.iter_mut().zip([0.010, 0.025, 0.040]) {
-                let t0 = r.time_s[0];
-                r.response.iter_mut().zip(&r.time_s).for_each(|(v, t)| *v += a * (-(t - t0) / 60.0).exp() + drift_v * (1.0 - (-(t - t0) / 160.0).exp()));
-            }
-            let b = fixture::built(&recs);
-            let steps = ClipSteps::of(&b.trials, None, false);
-            let ctx = fixture::ctx(&b, &steps, &b.hat);
-            let mut c = b.base_cfg.clone();
-            c.effects.push(Effect::BaselineDrift);
-            c.drift_tau = Some(160.0);
-            let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
-            let alts = alternatives(&c, &s, &ctx);
-            let better = alts.iter().find(|(e, ..)| *e == Effect::BaselineDrift).and_then(|(_, _, b)| b.as_ref()).expect("a better explanation");
+            let long = fixture::recs_with(74_200, |_| {}, |p| (p.hold_s, p.top_hold_s) = (60.0, 60.0));
+            let recs = fixture::with_decays(long, [0.010, 0.025, 0.040], 60.0, (drift_v, 160.0));
+            let better = better_than_a_drift(&recs, 160.0).expect("a better explanation");
             assert_eq!(better.effect, want, "drift {drift_v}: z {} {:?}", better.z, better.cfg.rest_tau);
             assert!(better.cfg.rest_tau.is_some() && (better.cfg.drift_tau.is_some() == (want == Effect::BaselineDrift)), "drift {drift_v}: {:?}", better.cfg);
         }

@@ -41,6 +41,17 @@ pub(super) fn recs_with(seed0: u64, f: impl Fn(&mut SensorParams), g: impl Fn(&m
     recs_and_truth_with(seed0, f, g).0
 }
 
+/// `recs` with a decay from each trial's start added (amplitudes `amps`, V, with time constant
+/// `tau_s`: the trials' rest states) and a warm-up shared by the trials (`drift`: its size in V and
+/// its time constant).
+pub(super) fn with_decays(mut recs: Vec<Recording>, amps: [f64; 3], tau_s: f64, (drift_v, drift_tau_s): (f64, f64)) -> Vec<Recording> {
+    for (r, a) in recs.iter_mut().zip(amps) {
+        let t0 = r.time_s[0];
+        r.response.iter_mut().zip(&r.time_s).for_each(|(v, t)| *v += a * (-(t - t0) / tau_s).exp() + drift_v * (1.0 - (-(t - t0) / drift_tau_s).exp()));
+    }
+    recs
+}
+
 /// The baseline stage on `recs`, with the default options (loads placed by hand).
 pub(super) fn built(recs: &[Recording]) -> Built {
     build(recs, &Options::default(), None).expect("the baseline is built")

@@ -208,12 +208,7 @@ mod tests {
     #[test]
     fn a_decay_is_shared_only_when_the_trials_agree_on_its_size() {
         for (amps, want) in [([0.008; 3], true), ([0.004, 0.008, 0.012], false), ([0.0; 3], false)] {
-            let mut recs = fixture::recs(74_100, |_| {});
-            for (r, a) in recs.iter_mut().zip(amps) {
-                let t0 = r.time_s[0];
-                r.response.iter_mut().zip(&r.time_s).for_each(|(v, t)| *v += a * (-(t - t0) / 60.0).exp());
-            }
-            let b = fixture::built(&recs);
+            let b = fixture::built(&fixture::with_decays(fixture::recs(74_100, |_| {}), amps, 60.0, (0.0, 1.0)));
             assert_eq!(shared_by_the_trials(&b.d, &b.trials, &b.base_cfg, 60.0, &b.hat), want, "{amps:?}");
         }
         assert_eq!(t_over_spread(&[1.0, 1.0]), f64::INFINITY);
