@@ -105,9 +105,7 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
         // a warm-up drift shared by the trials against the same decay fitted per trial (a
         // nuisance: how long each trial's sensor rested)
         if let (Effect::BaselineDrift, Some(tau), None) = (named, cur.drift_tau, cur.rest_tau) {
-            let mut c = wo.clone();
-            c.effects.push(Effect::RestRelaxation);
-            c.rest_tau = Some(tau);
+            let c = nuisance::with_rest(&wo, tau);
             if let Some((s, x)) = nuisance::rest_allowed(ctx.d, ctx.trials, tau).then(|| score(ctx.d, ctx.trials, &c, ctx.hat)).flatten() {
                 // it must explain the residual itself, as every alternative does
                 let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
@@ -136,7 +134,7 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
         if let (Effect::BaselineDrift, Some(tau), None) = (named, cur.drift_tau, cur.rest_tau) {
             let rests_won = better.as_ref().is_some_and(|b| b.effect == Effect::RestRelaxation);
             if rests_won || (better.is_none() && !nuisance::shared_by_the_trials(ctx.d, ctx.trials, &wo, tau, ctx.hat)) {
-                better = nuisance::in_its_place(&wo, cur_score, ctx).or(better);
+                better = nuisance::in_its_place((&wo, &s_wo), cur_score, ctx).or(better);
             }
         }
         out.push((named, alts, better));

@@ -65,16 +65,15 @@ pub(super) fn rest_candidates(d: &Design, trials: &[Trial], cur: &Config) -> Vec
     if cur.rest_tau.is_some() {
         return vec![];
     }
-    REST_TAUS_S
-        .into_iter()
-        .filter(|&t| rest_allowed(d, trials, t))
-        .map(|tau| {
-            let mut c = cur.clone();
-            c.effects.push(Effect::RestRelaxation);
-            c.rest_tau = Some(tau);
-            c
-        })
-        .collect()
+    REST_TAUS_S.into_iter().filter(|&t| rest_allowed(d, trials, t)).map(|tau| with_rest(cur, tau)).collect()
+}
+
+/// The model `cur` with a rest relaxation per trial of time constant `tau`.
+pub(super) fn with_rest(cur: &Config, tau: f64) -> Config {
+    let mut c = cur.clone();
+    c.effects.push(Effect::RestRelaxation);
+    c.rest_tau = Some(tau);
+    c
 }
 
 /// Whether a rest relaxation with time constant `tau` may be fitted: two trials or more (it is fitted
@@ -135,9 +134,7 @@ pub(super) fn shared_by_the_trials(d: &Design, trials: &[Trial], wo: &Config, ta
     if d.prior || trials.len() < 2 {
         return true;
     }
-    let mut c = wo.clone();
-    c.effects.push(Effect::RestRelaxation);
-    c.rest_tau = Some(tau);
+    let c = with_rest(wo, tau);
     let Some((_, x)) = train_bic(d, trials, &c, hat) else { return true };
     let amps: Vec<f64> = (0..trials.len()).map(|k| x[d.rest_col(&c) + k]).collect();
     t_over_spread(&amps) >= T_ONE_PERCENT.get(amps.len() - 2).copied().unwrap_or(2.33)
@@ -155,8 +152,8 @@ fn t_over_spread(a: &[f64]) -> f64 {
     mean.abs() / (sd / n.sqrt())
 }
 
-/// The trials' rest states in a shared term's place (model `wo` without it, scored `cur_score` with
-/// it): their time constant chosen on the training fit as the forward step chooses it; taken when it
+/// The trials' rest states in a shared term's place (model `wo` without it, scored `s_wo`; scored
+/// `cur_score` with it): their time constant chosen on the training fit as the forward step chooses it; taken when it
 /// explains the residual against `wo` (lower held-out error, paired z ≥ MIN_Z), as every
 /// alternative must.
 ///
@@ -164,9 +161,8 @@ fn t_over_spread(a: &[f64]) -> f64 {
 /// differently): the drift is tried again with them, the two time constants chosen together on the
 /// training fit, and when it passes the forward step's rule on the rests alone, both stand (the
 /// better explanation is then the drift with the rests beside it).
-pub(super) fn in_its_place(wo: &Config, cur_score: &Score, ctx: &Ctx) -> Option<alternatives::Better> {
+pub(super) fn in_its_place((wo, s_wo): (&Config, &Score), cur_score: &Score, ctx: &Ctx) -> Option<alternatives::Better> {
     let c = candidate(Effect::RestRelaxation, wo, ctx)?;
-    let (s_wo, _) = score(ctx.d, ctx.trials, wo, ctx.hat)?;
     let (s, x) = score(ctx.d, ctx.trials, &c, ctx.hat)?;
     let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
     if !explains {
