@@ -32,6 +32,10 @@ pub struct Effects {
     pub creep_in_conductance: bool,
     /// Fraction of (V_eq(F_max) − V_eq(F)) kept on the unloading branch.
     pub hysteresis: f64,
+    /// The hysteresis of the sensor's conductance, seen through the read-out (family B's form): on
+    /// the unloading branch the conductance gains `hysteresis` · (F_max − F) / 1 N · g_ref, instead of
+    /// the response keeping the fraction `hysteresis` of (V_eq(F_max) − V_eq(F)).
+    pub hysteresis_in_conductance: bool,
     /// The peak's memory time (s): with it (> 0) the remembered peak force fades toward the present
     /// force, dP/dt = −(P − F)/T while F < P (the gap closes over minutes); 0: kept for good.
     pub hysteresis_memory_s: f64,
@@ -137,7 +141,7 @@ static NOISE: Schema = Schema { fields: || &["sigma_v"], tables: &[] };
 static RIG: Schema = Schema { fields: || &["preload_g"], tables: &[] };
 static COVER: Schema = Schema { fields: || &["dome_stiffness_n_per_mm", "contact_diameter_mm", "relax_fraction", "tau_s"], tables: &[] };
 static CREEP: Schema = Schema { fields: || &["per_decade", "time_s", "superposed", "in_conductance"], tables: &[] };
-static HYST: Schema = Schema { fields: || &["fraction", "memory_s"], tables: &[] };
+static HYST: Schema = Schema { fields: || &["fraction", "memory_s", "in_conductance"], tables: &[] };
 static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s", "warmup_tau_s"], tables: &[] };
 static SAT: Schema = Schema { fields: || &["level_v", "before_noise"], tables: &[] };
@@ -249,10 +253,16 @@ impl SensorParams {
         let before_noise = switch("saturation", "before_noise", "use true (an amplifier's rail, before the noise) or false (the ADC's reference, after it)");
         let superposed = switch("creep", "superposed", "use true (each change's creep keeps going after later changes) or false (creep restarts at every step)");
         let in_conductance = switch("creep", "in_conductance", "use true (the conductance creeps, seen through the read-out) or false (the response creeps)");
+        let hyst_in_conductance = switch(
+            "hysteresis",
+            "in_conductance",
+            "use true (the conductance keeps a share of the peak's force gap, seen through the read-out) or false (the response keeps a share of the peak's level)",
+        );
         let eff = Effects {
             saturation_before_noise: before_noise,
             creep_superposed: superposed,
             creep_in_conductance: in_conductance,
+            hysteresis_in_conductance: hyst_in_conductance,
             creep_per_decade: num(&mut c, &e("creep"), "effects.creep", "per_decade", 0.0, 0.0, 10.0).unwrap_or(0.0),
             creep_time_s: num(&mut c, &e("creep"), "effects.creep", "time_s", 1.0, 1e-3, 1e5).unwrap_or(1.0),
             hysteresis: num(&mut c, &e("hysteresis"), "effects.hysteresis", "fraction", 0.0, 0.0, 1.0).unwrap_or(0.0),

@@ -213,7 +213,8 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         }
         let mut target = p.v_eq(f);
         if e.hysteresis > 0.0 && f < f_max {
-            target += e.hysteresis * (p.v_eq(f_max) - target);
+            target =
+                if e.hysteresis_in_conductance { p.response(p.conductance(f) + e.hysteresis * (f_max - f) * p.g_ref_s) } else { target + e.hysteresis * (p.v_eq(f_max) - target) };
         }
         if k > 0 {
             let tau = p.tau(f);
@@ -488,6 +489,31 @@ pub(crate) mod tests {
             gap(&fading, late),
             gap(&kept, late)
         );
+    }
+
+    /// Family B's form of hysteresis: the conductance, not the response, keeps a share of the
+    /// peak's force gap. Late in the last removal's hold (without fading) the response is the
+    /// divider's at G(F) + h · (F_max − F) / 1 N · g_ref; the same h kept on the response gives
+    /// another offset.
+    #[test]
+    fn a_conductance_hysteresis_keeps_a_share_of_the_peaks_force_gap() {
+        let (mut s, p) = defaults();
+        s.noise_v = 0.0;
+        s.effects.hysteresis = 0.02;
+        let (_, in_v) = simulate(&s, &p, 20.0, None, 5);
+        s.effects.hysteresis_in_conductance = true;
+        let (_, in_g) = simulate(&s, &p, 20.0, None, 5);
+        let last = in_g.steps.last().unwrap();
+        let peak = in_g.steps.iter().map(|x| x.force_after_n).fold(0.0, f64::max);
+        let k = ((last.t_land_s + p.baseline_s - 0.5) * s.circuit.sample_rate_hz) as usize;
+        let f = last.force_after_n;
+        let want = s.response(s.conductance(f) + 0.02 * (peak - f) * s.g_ref_s);
+        assert!((in_g.clean_v[k] - want).abs() < 1e-6 * s.circuit.vcc_v, "{} vs {want}", in_g.clean_v[k]);
+        assert!(want > s.v_eq(f) + 1e-4 && (in_v.clean_v[k] - want).abs() > 1e-4, "{} {} {want}", s.v_eq(f), in_v.clean_v[k]);
+        // a value other than a boolean is reported with its TOML path
+        let bad = "[effects.hysteresis]\nfraction = 0.01\nin_conductance = 1\n";
+        let err = SensorParams::from_source(&SourceFile::parse("s.toml", bad.to_string()).unwrap()).unwrap_err().to_string();
+        assert!(err.contains("effects.hysteresis.in_conductance") && err.contains("use true"), "{err}");
     }
 
     /// Rests of one sign: every trial starts raised by the size a two-signed draw gives (the same
