@@ -47,7 +47,7 @@ impl Drive {
 /// The term's columns at time t (`out` holds `drive.columns()` values), from the steps begun.
 pub fn columns(s: &impl Steps, active: &[usize], t: f64, tau2_s: f64, drive: Drive, out: &mut [f64]) {
     for &q in active {
-        let since = super::since(t, s.t0(q));
+        let since = t - s.t0(q);
         match drive {
             Drive::Change => out[0] += s.dv(q) * (super::decay(since / s.tau(q)) - super::decay(since / tau2_s)),
             Drive::Size => out[usize::from(s.unloading(q))] += s.dv(q).abs() * super::decay(since / tau2_s),
