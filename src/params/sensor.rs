@@ -30,7 +30,9 @@ pub struct Effects {
     /// Creep of the sensor's conductance, seen through the read-out (a divider compresses it at
     /// its top and shows it in full at its bottom), instead of creep of the response itself.
     pub creep_in_conductance: bool,
-    /// Fraction of (V_eq(F_max) − V_eq(F)) kept on the unloading branch.
+    /// Fraction of (V_eq(F_max) − V_eq(F)) kept on the unloading branch; with
+    /// `hysteresis_in_conductance`, the conductance gained per newton of the peak's force gap, in
+    /// units of g_ref.
     pub hysteresis: f64,
     /// The hysteresis of the sensor's conductance, seen through the read-out (family B's form): on
     /// the unloading branch the conductance gains `hysteresis` · (F_max − F) / 1 N · g_ref, instead of

@@ -505,7 +505,7 @@ pub(crate) mod tests {
         let (_, in_g) = simulate(&s, &p, 20.0, None, 5);
         let last = in_g.steps.last().unwrap();
         let peak = in_g.steps.iter().map(|x| x.force_after_n).fold(0.0, f64::max);
-        let k = ((last.t_land_s + p.baseline_s - 0.5) * s.circuit.sample_rate_hz) as usize;
+        let k = ((last.t_land_s + p.final_rest_s - 0.5) * s.circuit.sample_rate_hz) as usize;
         let f = last.force_after_n;
         let want = s.response(s.conductance(f) + 0.02 * (peak - f) * s.g_ref_s);
         assert!((in_g.clean_v[k] - want).abs() < 1e-6 * s.circuit.vcc_v, "{} vs {want}", in_g.clean_v[k]);
