@@ -471,7 +471,7 @@ pub(crate) mod tests {
         let at = |t: f64| (t * s.circuit.sample_rate_hz).round() as usize;
         let gap = |tr: &Truth, t: f64| tr.clean_v[at(t)] - plain.clean_v[at(t)];
         let last = fading.steps.last().unwrap();
-        let (early, late) = (last.t_land_s + 3.0, last.t_land_s + p.baseline_s - 0.5);
+        let (early, late) = (last.t_land_s + 3.0, last.t_land_s + p.final_rest_s - 0.5);
         assert!(gap(&kept, early) > 1e-3 && (gap(&kept, late) / gap(&kept, early) - 1.0).abs() < 0.01, "{} {}", gap(&kept, early), gap(&kept, late));
         // the peak remembered at `late`, faded hold by hold from the top
         let unl: Vec<&TruthStep> = fading.steps.iter().filter(|x| x.phase == "unloading").collect();

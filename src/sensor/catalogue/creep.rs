@@ -21,7 +21,7 @@ pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
     let mut carry = 0.0;
     for q in 0..=cur {
         let end = if q == cur { t } else { s.t0(q + 1) };
-        let since = end - s.t0(q);
+        let since = super::since(end, s.t0(q));
         carry = carry * super::decay(since / s.tau(q)) + s.level(q) * (1.0 + since / TIME_S).log10();
     }
     carry

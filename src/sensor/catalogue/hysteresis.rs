@@ -16,7 +16,7 @@ pub const EXPLANATION: &str = "at the same load the unloading branch stays away 
 pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
     let h = |q: usize| if s.after_peak(q) { s.below_top(q) } else { 0.0 };
     let prev = if cur > 0 { h(cur - 1) } else { 0.0 };
-    h(cur) + (prev - h(cur)) * super::decay((t - s.t0(cur)) / s.tau(cur))
+    h(cur) + (prev - h(cur)) * super::decay(super::since(t, s.t0(cur)) / s.tau(cur))
 }
 
 /// The fading memories (s) the final model's hysteresis is tried with, beside the permanent one: a log
@@ -47,7 +47,7 @@ pub fn fading_column(s: &impl Steps, (cur, t): (usize, f64), memory_s: f64, (sta
     };
     let now = gap(peak, cur);
     let before = if cur > 0 { gap(prev_peak.max(load(cur - 1)), cur - 1) } else { 0.0 };
-    now + (before - now) * super::decay((t - s.t0(cur)) / s.tau(cur))
+    now + (before - now) * super::decay(super::since(t, s.t0(cur)) / s.tau(cur))
 }
 
 /// The later half of a hold (and after 3τ).

@@ -65,6 +65,15 @@ impl Effect {
 
 pub const REST_EXPLANATION: &str = "each trial starts with a relaxation of its own that fades from its first sample (what the sensor brings from before the recording: how long it rested, what it carried): a nuisance of the set-up, fitted per trial and validated inside each trial, not physics of the sensor";
 
+/// Time since an onset `t0_s` at `t` (s), 0 before it. A design row is active from half a filtered
+/// span before its step's onset; a decay over the step's own τ taken there at a negative time
+/// grows as e^(span/τ) — for a jump (τ a share of one sample) to 10⁴² — and one such sample
+/// leaves a term's column worthless (family A, a hand's quick lift: the hysteresis's coefficient
+/// fitted 10⁻⁴⁴). Before its onset a step has not begun.
+pub fn since(t: f64, t0_s: f64) -> f64 {
+    (t - t0_s).max(0.0)
+}
+
 /// e^(−x), and exactly 0 past x = 700 (e^−700 ≈ 1e−304): libm's exp takes a slow path for every
 /// result that underflows, and a term's decay is evaluated at every sample of an hours-long
 /// recording for every step before it.
@@ -238,6 +247,50 @@ pub(crate) fn test_noise(n: usize, sigma: f64, seed: u64) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A step faster than one sample (its τ a share of the interval), evaluated within half a
+    /// filtered span before its onset, as a design row is: every term's column holds the value
+    /// before the step (finite), where e^(span/τ) made it 10⁴² (family A, a hand's quick lift).
+    #[test]
+    fn a_jump_s_columns_hold_before_its_onset() {
+        struct Jump;
+        impl Steps for Jump {
+            fn t0(&self, q: usize) -> f64 {
+                [0.0, 10.0][q]
+            }
+            fn tau(&self, q: usize) -> f64 {
+                [1.0, 5e-4][q]
+            }
+            fn dv(&self, q: usize) -> f64 {
+                [2.0, -1.0][q]
+            }
+            fn level(&self, q: usize) -> f64 {
+                [2.0, 1.0][q]
+            }
+            fn below_top(&self, q: usize) -> f64 {
+                [0.0, 1.0][q]
+            }
+            fn unloading(&self, q: usize) -> bool {
+                q == 1
+            }
+        }
+        let (before, at) = (10.0 - 0.05, 10.0);
+        let hyst = |t: f64| hysteresis::column(&Jump, 1, t);
+        assert!((hyst(before) - hyst(at)).abs() < 1e-12 && hyst(at).abs() < 1e-9, "{} {}", hyst(before), hyst(at));
+        let fading = |t: f64| hysteresis::fading_column(&Jump, (1, t), 60.0, (0.0, |q: usize| [200.0, 100.0][q]), |l| l / 100.0);
+        assert!(fading(before).is_finite() && (fading(before) - fading(at)).abs() < 1e-12, "{} {}", fading(before), fading(at));
+        let creep = |t: f64| creep::column(&Jump, 1, t);
+        assert!(creep(before).is_finite() && (creep(before) - creep(at)).abs() < 1e-12, "{} {}", creep(before), creep(at));
+        for drive in [second_time_constant::Drive::Change, second_time_constant::Drive::Size] {
+            let col = |t: f64| {
+                let mut out = [0.0; 2];
+                second_time_constant::columns(&Jump, &[1], t, 30.0, drive, &mut out[..drive.columns()]);
+                out
+            };
+            let (b, a) = (col(before), col(at));
+            assert!(b.iter().zip(&a).all(|(x, y)| x.is_finite() && (x - y).abs() < 1e-12), "{b:?} {a:?}");
+        }
+    }
 
     #[test]
     fn test_noise_is_white_with_its_sigma() {

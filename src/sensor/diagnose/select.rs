@@ -153,13 +153,12 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         if matches!(e, Effect::Creep | Effect::SecondTimeConstant) && gain > 0.0 && exact.as_ref().is_none_or(|x: &Exact| gain > x.gain) {
             exact = Some(Exact { effect: e, drive: c.drive, tau2_s: c.tau2, gain });
         }
-        // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN.
-        // (A term passes at any gain on the z of the differences; MIN_ROBUST_GAIN is asked of the
-        // rank route only, `gate::paired_z`. Asked of every term, it cost a 1σ creep under a
-        // hand's touch and the trials' nuisances its name on 8 of 8 seeds of
-        // `a_hands_touch_is_handling_and_hides_no_creep`: held out, its gain was 1.3–2.7 % of an
-        // error the trials' rest states dominate, at z 3.2–4.8.)
-        let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { 0.0 };
+        // a nuisance (one term per trial) must also be worth its name: at least MIN_ROBUST_GAIN;
+        // a term of the catalogue, at least MIN_TERM_GAIN. (MIN_ROBUST_GAIN asked of every term
+        // cost a 1σ creep under a hand's touch and the trials' nuisances its name on 8 of 8 seeds
+        // of `a_hands_touch_is_handling_and_hides_no_creep`: held out, its gain was 1.3–2.7 % of
+        // an error the trials' rest states dominate, at z 3.2–4.8.)
+        let least = if e == Effect::RestRelaxation { MIN_ROBUST_GAIN } else { MIN_TERM_GAIN };
         // and a term fitted per trial must beat the same term shared by the trials (the guide's
         // two hypotheses): a rest relaxation whose trials agree is a warm-up of the read-out,
         // the drift's
