@@ -211,7 +211,7 @@ fn report_html(d: &Diagnosis, advice_html: &str, imgs: &[String]) -> String {
     for w in &d.located {
         html += &format!("<tr><td>{}</td><td>{}</td><td>{:.1}–{:.1}</td><td>{}</td></tr>\n", w.test, esc(&w.recording), w.start_s, w.end_s, esc(&w.statistic));
     }
-    html += "</table>\n<h2>Decisions</h2>\n<p>A term enters when its held-out improvement has a paired z ≥ 3 over units and it lowers BIC by at least 10; of those that pass in a round, the one that predicts held-out data best. A kept term leaves (backward) when, given the others, it no longer passes and the others pass without it; the forward rounds then run once more.</p>\n<table><tr><th>step</th><th>stage</th><th>candidate</th><th>held-out RMSE</th><th>gain</th><th>paired z</th><th>ΔBIC</th><th>accepted</th></tr>\n";
+    html += "</table>\n<h2>Decisions</h2>\n<p>A term enters when its held-out improvement is more than 0.5 % with a paired z ≥ 3 over units and it lowers BIC by at least 10; of those that pass in a round, the one that predicts held-out data best. A kept term leaves (backward) when, given the others, it no longer passes and the others pass without it; the forward rounds then run once more.</p>\n<table><tr><th>step</th><th>stage</th><th>candidate</th><th>held-out RMSE</th><th>gain</th><th>paired z</th><th>ΔBIC</th><th>accepted</th></tr>\n";
     for dc in &d.decisions {
         html += &format!(
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+.3}</td><td>{:.2}</td><td>{:.1}</td><td>{}</td></tr>\n",

@@ -31,7 +31,7 @@ pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
 /// up to step `cur`, adds its own log-time creep in proportion to its change of level, and keeps it
 /// going after later changes — a creep that carries over from step to step.
 pub fn superposed_column(s: &impl Steps, cur: usize, t: f64) -> f64 {
-    (0..=cur).map(|q| s.dv(q) * (1.0 + (t - s.t0(q)).max(0.0) / TIME_S).log10()).sum()
+    (0..=cur).map(|q| s.dv(q) * (1.0 + super::since(t, s.t0(q)) / TIME_S).log10()).sum()
 }
 
 /// Holds whose residual trends against log time after 3τ.

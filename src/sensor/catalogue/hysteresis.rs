@@ -42,7 +42,7 @@ pub fn fading_column(s: &impl Steps, (cur, t): (usize, f64), memory_s: f64, (sta
     }
     // the gap in level at t from a remembered load at an onset, fading toward the step's load
     let gap = |p: f64, q: usize| {
-        let now = load(q) + (p - load(q)).max(0.0) * (-(t - s.t0(q)).max(0.0) / memory_s).exp();
+        let now = load(q) + (p - load(q)).max(0.0) * (-super::since(t, s.t0(q)) / memory_s).exp();
         level_at(now) - level_at(load(q))
     };
     let now = gap(peak, cur);

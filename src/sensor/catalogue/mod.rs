@@ -67,7 +67,7 @@ pub const REST_EXPLANATION: &str = "each trial starts with a relaxation of its o
 
 /// Time since an onset `t0_s` at `t` (s), 0 before it. A design row is active from half a filtered
 /// span before its step's onset; a decay over the step's own τ taken there at a negative time
-/// grows as e^(span/τ) — for a jump (τ a share of one sample) to 10⁴² — and one such sample
+/// grows as e^(half span/τ) — for a jump (τ a share of one sample) to 10⁴² — and one such sample
 /// leaves a term's column worthless (family A, a hand's quick lift: the hysteresis's coefficient
 /// fitted 10⁻⁴⁴). Before its onset a step has not begun.
 pub fn since(t: f64, t0_s: f64) -> f64 {
@@ -250,7 +250,7 @@ mod tests {
 
     /// A step faster than one sample (its τ a share of the interval), evaluated within half a
     /// filtered span before its onset, as a design row is: every term's column holds the value
-    /// before the step (finite), where e^(span/τ) made it 10⁴² (family A, a hand's quick lift).
+    /// before the step (finite), where e^(half span/τ) made it 10⁴² (family A, a hand's quick lift).
     #[test]
     fn a_jump_s_columns_hold_before_its_onset() {
         struct Jump;

@@ -51,7 +51,7 @@ pub fn columns(s: &impl Steps, active: &[usize], t: f64, tau2_s: f64, drive: Dri
         match drive {
             Drive::Change => out[0] += s.dv(q) * (super::decay(since / s.tau(q)) - super::decay(since / tau2_s)),
             // the size drive holds |dv| over the half filtered span before the onset (its value at
-            // the onset, as e^(span/τ2) ≈ 1 gave before `since`); 0 there, as the spectrum's kernels
+            // the onset, as e^(half span/τ2) ≈ 1 gave before `since`); 0 there, as the spectrum's kernels
             // are, let a false 2 s second τ in on a creep (`tests/advice.rs`,
             // nothing_ambiguous_nothing_advised; stop 46)
             Drive::Size => out[usize::from(s.unloading(q))] += s.dv(q).abs() * super::decay(since / tau2_s),

@@ -9,7 +9,8 @@
 //! spectrum and saturation (a clip); handling spikes are reported and excluded, never modelled.
 //! A term enters when it lowers the held-out error (leave one trial out; with one recording, leave
 //! one step out or forecast the later blocks of each hold) with a paired z of at least `MIN_Z`
-//! over units (`gate::change_z`: for a clip, over the units it can change) and BIC lower by at least `MIN_DBIC` (the least in-sample gain);
+//! over units (`gate::change_z`: for a clip, over the units it can change), a held-out gain above
+//! `MIN_TERM_GAIN` and BIC lower by at least `MIN_DBIC` (the least in-sample gain);
 //! of the terms that pass, the one that predicts held-out data best (issue 15, item 5).
 //!
 //! The pipeline (`run`), one stage per file, on recordings whose samples piled at an ADC's floor

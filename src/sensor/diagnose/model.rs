@@ -462,7 +462,7 @@ impl Design {
             }
         }
         if let (Some(tau), true) = (cfg.rest_tau, self.n_rests(cfg) > 0) {
-            out[self.rest_col(cfg) + i] = catalogue::decay((t - tr.t[0]).max(0.0) / tau);
+            out[self.rest_col(cfg) + i] = catalogue::decay(catalogue::since(t, tr.t[0]) / tau);
         }
     }
 }
@@ -535,7 +535,7 @@ impl TrialSteps<'_> {
         let segs = &self.tr.segs;
         let h = self.tr.half_span_s;
         let first = self.hat.response_of(self.i, segs[0].prev) + (0..=cur).map(|q| self.dv(q) * rise(t, self.t0(q), self.tau(q), h, segs[q].input)).sum::<f64>();
-        let clock = |q: usize| (1.0 + (t - self.t0(q)).max(0.0) / catalogue::creep::TIME_S).log10();
+        let clock = |q: usize| (1.0 + catalogue::since(t, self.t0(q)) / catalogue::creep::TIME_S).log10();
         let creep_u = (0..=cur).map(|q| self.du(q).unwrap_or(0.0) * clock(q)).sum::<f64>();
         // exactly at the fraction given (a large creep spans much of the read-out's curve)
         let exact = self.cfg.creep.exact_at().filter(|c| c.abs() > 1e-12).and_then(|c| {

@@ -142,7 +142,7 @@ pub struct Diagnosis {
     pub unexplained: Unexplained,
     #[serde(rename = "final")]
     pub final_: Final,
-    /// Every selection decision with its numbers (the rule: lower held-out error at a paired z ≥ MIN_Z and ΔBIC ≤ MIN_DBIC; of those passing in a round, the one with the lowest held-out RMSE is taken), in step order.
+    /// Every selection decision with its numbers (the rule: lower held-out error by more than MIN_TERM_GAIN at a paired z ≥ MIN_Z and ΔBIC ≤ MIN_DBIC; of those passing in a round, the one with the lowest held-out RMSE is taken), in step order.
     pub decisions: Vec<Decision>,
     /// Where the baseline fails, before any term is chosen: each catalogue signature's windows and
     /// the whiteness test's, each with its statistic.
