@@ -1,7 +1,7 @@
 //! Writing a diagnosis: diagnosis.json, predictions/<stem>.csv, plots, report.html, and a summary
 //! in plain words.
 
-use super::diagnose::Diagnosis;
+use super::diagnose::{Diagnosis, MIN_DBIC, MIN_TERM_GAIN, MIN_Z};
 use crate::export::Staged;
 use crate::plot::{self, Chart, Series, PALETTE};
 use std::path::Path;
@@ -211,7 +211,8 @@ fn report_html(d: &Diagnosis, advice_html: &str, imgs: &[String]) -> String {
     for w in &d.located {
         html += &format!("<tr><td>{}</td><td>{}</td><td>{:.1}–{:.1}</td><td>{}</td></tr>\n", w.test, esc(&w.recording), w.start_s, w.end_s, esc(&w.statistic));
     }
-    html += "</table>\n<h2>Decisions</h2>\n<p>A term enters when its held-out improvement is more than 0.5 % with a paired z ≥ 3 over units and it lowers BIC by at least 10; of those that pass in a round, the one that predicts held-out data best. A kept term leaves (backward) when, given the others, it no longer passes and the others pass without it; the forward rounds then run once more.</p>\n<table><tr><th>step</th><th>stage</th><th>candidate</th><th>held-out RMSE</th><th>gain</th><th>paired z</th><th>ΔBIC</th><th>accepted</th></tr>\n";
+    // the rule's numbers from the gate's own constants, so the page cannot drift from the code
+    html += &format!("</table>\n<h2>Decisions</h2>\n<p>A term enters when its held-out improvement is more than {} % with a paired z ≥ {MIN_Z} over units and it lowers BIC by at least {}; of those that pass in a round, the one that predicts held-out data best. A kept term leaves (backward) when, given the others, it no longer passes and the others pass without it; the forward rounds then run once more.</p>\n<table><tr><th>step</th><th>stage</th><th>candidate</th><th>held-out RMSE</th><th>gain</th><th>paired z</th><th>ΔBIC</th><th>accepted</th></tr>\n", 100.0 * MIN_TERM_GAIN, -MIN_DBIC);
     for dc in &d.decisions {
         html += &format!(
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+.3}</td><td>{:.2}</td><td>{:.1}</td><td>{}</td></tr>\n",

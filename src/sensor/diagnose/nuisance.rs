@@ -171,7 +171,8 @@ pub(super) fn in_its_place((wo, s_wo): (&Config, &Score), cur_score: &Score, ctx
     let beside = drift_beside_rests(wo, ctx).and_then(|cd| {
         let (sd, xd) = score(ctx.d, ctx.trials, &cd, ctx.hat)?;
         // the forward step's rule: its least gain, z and ΔBIC, and the physics' sign
-        let passes = sd.gain_over(&s) > MIN_TERM_GAIN && paired_z(&s.units, &sd.units) >= MIN_Z && sd.bic - s.bic <= MIN_DBIC && of_its_sign(ctx.d, &cd, &xd, Effect::BaselineDrift);
+        let passes =
+            sd.gain_over(&s) > MIN_TERM_GAIN && paired_z(&s.units, &sd.units) >= MIN_Z && sd.bic - s.bic <= MIN_DBIC && of_its_sign(ctx.d, &cd, &xd, Effect::BaselineDrift);
         passes.then_some((cd, sd, xd))
     });
     Some(match beside {
