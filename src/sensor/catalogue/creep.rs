@@ -75,7 +75,7 @@ mod tests {
 
     #[test]
     fn grows_per_decade_under_load_and_relaxes_after_removal() {
-        let steps = super::super::UpDown { t0: [10.0, 30.0], top: 1.0, after: 0.0 };
+        let steps = super::super::UpDown { t0: [10.0, 30.0], top: 1.0, after: 0.0, tau_s: [1.0; 2] };
         assert!((column(&steps, 0, 19.0) - 1.0).abs() < 1e-12); // log10(1 + 9) = 1
         let after = column(&steps, 1, 40.0);
         assert!(after.abs() < 1e-3 && after > 0.0, "{after}");
@@ -86,7 +86,7 @@ mod tests {
     /// slowly — the carry-over the restarting form relaxes away within the new step's τ.
     #[test]
     fn superposed_creep_carries_over_after_the_load_is_removed() {
-        let steps = super::super::UpDown { t0: [10.0, 30.0], top: 1.0, after: 0.0 };
+        let steps = super::super::UpDown { t0: [10.0, 30.0], top: 1.0, after: 0.0, tau_s: [1.0; 2] };
         assert!((superposed_column(&steps, 0, 19.0) - 1.0).abs() < 1e-12);
         let after = superposed_column(&steps, 1, 40.0);
         let want = (1.0f64 + 30.0).log10() - (1.0f64 + 10.0).log10();

@@ -80,7 +80,7 @@ mod tests {
 
     #[test]
     fn column_holds_the_gap_to_the_top_after_unloading() {
-        let steps = super::super::UpDown { t0: [0.0, 10.0], top: 2.0, after: 1.0 };
+        let steps = super::super::UpDown { t0: [0.0, 10.0], top: 2.0, after: 1.0, tau_s: [1.0; 2] };
         assert_eq!(column(&steps, 0, 5.0), 0.0);
         assert!((column(&steps, 1, 30.0) - 1.0).abs() < 1e-6);
         assert!(column(&steps, 1, 10.5) < 0.5);
@@ -119,7 +119,7 @@ mod tests {
         assert!((column(&Cycles, 1, 19.9) - 2.0).abs() < 1e-3);
         assert!((column(&Cycles, 2, 40.0) - 1.0).abs() < 1e-6);
         // the trait's default (before the top is reached twice) is the unloading steps alone
-        let once = super::super::UpDown { t0: [0.0, 10.0], top: 2.0, after: 1.0 };
+        let once = super::super::UpDown { t0: [0.0, 10.0], top: 2.0, after: 1.0, tau_s: [1.0; 2] };
         assert!(once.after_peak(1) && !once.after_peak(0));
     }
 

@@ -195,12 +195,13 @@ pub fn sig3(v: f64) -> String {
 }
 
 /// Test steps: the load goes up to a level `top` at `t0[0]` and down to `after` at `t0[1]`
-/// (levels above zero load, τ = 1 s).
+/// (levels above zero load), each step with its first-order τ `tau_s`.
 #[cfg(test)]
 pub(crate) struct UpDown {
     pub t0: [f64; 2],
     pub top: f64,
     pub after: f64,
+    pub tau_s: [f64; 2],
 }
 
 #[cfg(test)]
@@ -208,8 +209,8 @@ impl Steps for UpDown {
     fn t0(&self, q: usize) -> f64 {
         self.t0[q]
     }
-    fn tau(&self, _: usize) -> f64 {
-        1.0
+    fn tau(&self, q: usize) -> f64 {
+        self.tau_s[q]
     }
     fn dv(&self, q: usize) -> f64 {
         [self.top, self.after - self.top][q]
@@ -253,38 +254,19 @@ mod tests {
     /// before the step (finite), where e^(half span/τ) made it 10⁴² (family A, a hand's quick lift).
     #[test]
     fn a_jump_s_columns_hold_before_its_onset() {
-        struct Jump;
-        impl Steps for Jump {
-            fn t0(&self, q: usize) -> f64 {
-                [0.0, 10.0][q]
-            }
-            fn tau(&self, q: usize) -> f64 {
-                [1.0, 5e-4][q]
-            }
-            fn dv(&self, q: usize) -> f64 {
-                [2.0, -1.0][q]
-            }
-            fn level(&self, q: usize) -> f64 {
-                [2.0, 1.0][q]
-            }
-            fn below_top(&self, q: usize) -> f64 {
-                [0.0, 1.0][q]
-            }
-            fn unloading(&self, q: usize) -> bool {
-                q == 1
-            }
-        }
+        // up to 2 at 0 s (τ 1 s), down to 1 at 10 s in a jump (τ 0.5 ms)
+        let jump = UpDown { t0: [0.0, 10.0], top: 2.0, after: 1.0, tau_s: [1.0, 5e-4] };
         let (before, at) = (10.0 - 0.05, 10.0);
-        let hyst = |t: f64| hysteresis::column(&Jump, 1, t);
+        let hyst = |t: f64| hysteresis::column(&jump, 1, t);
         assert!((hyst(before) - hyst(at)).abs() < 1e-12 && hyst(at).abs() < 1e-9, "{} {}", hyst(before), hyst(at));
-        let fading = |t: f64| hysteresis::fading_column(&Jump, (1, t), 60.0, (0.0, |q: usize| [200.0, 100.0][q]), |l| l / 100.0);
+        let fading = |t: f64| hysteresis::fading_column(&jump, (1, t), 60.0, (0.0, |q: usize| [200.0, 100.0][q]), |l| l / 100.0);
         assert!(fading(before).is_finite() && (fading(before) - fading(at)).abs() < 1e-12, "{} {}", fading(before), fading(at));
-        let creep = |t: f64| creep::column(&Jump, 1, t);
+        let creep = |t: f64| creep::column(&jump, 1, t);
         assert!(creep(before).is_finite() && (creep(before) - creep(at)).abs() < 1e-12, "{} {}", creep(before), creep(at));
         for drive in [second_time_constant::Drive::Change, second_time_constant::Drive::Size] {
             let col = |t: f64| {
                 let mut out = [0.0; 2];
-                second_time_constant::columns(&Jump, &[1], t, 30.0, drive, &mut out[..drive.columns()]);
+                second_time_constant::columns(&jump, &[1], t, 30.0, drive, &mut out[..drive.columns()]);
                 out
             };
             let (b, a) = (col(before), col(at));

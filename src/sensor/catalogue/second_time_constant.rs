@@ -110,7 +110,7 @@ mod tests {
 
     #[test]
     fn change_drive_follows_the_sign_and_size_drive_does_not() {
-        let steps = super::super::UpDown { t0: [0.0, 20.0], top: 1.0, after: 0.0 };
+        let steps = super::super::UpDown { t0: [0.0, 20.0], top: 1.0, after: 0.0, tau_s: [1.0; 2] };
         let mut a = [0.0];
         columns(&steps, &[0, 1], 21.0, 8.0, Drive::Change, &mut a);
         let mut b = [0.0];
