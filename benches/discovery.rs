@@ -472,7 +472,9 @@ fn main() {
                 seed += 10 * n;
                 continue;
             }
-            let m = magnitude_for(&sv, (&pv, pre), e, sv.noise_v, topv);
+            // TIPFORGE_DISCOVERY_VARIATION_SIGMA=4: the rows' effects at 4σ instead of 1σ (probes)
+            let k_sigma: f64 = std::env::var("TIPFORGE_DISCOVERY_VARIATION_SIGMA").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
+            let m = magnitude_for(&sv, (&pv, pre), e, k_sigma * sv.noise_v, topv);
             let mut s = sv.clone();
             e.set(&mut s, m, topv);
             let mut hit = 0;
