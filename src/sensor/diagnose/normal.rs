@@ -258,13 +258,12 @@ pub(super) fn solve_normal(d: &Design, cfg: &Config, n: &Normal, support: Option
         }
     }
     // the per-trial gains and the shared levels trade one common factor: a faint ridge on the gains
-    // leaves it with the levels (the gains' mean near zero); the gains' columns, not the last ones
-    // (the rests' follow them when the model has both)
+    // leaves it with the levels (the gains' mean near zero)
     let ng = d.n_gains(cfg);
     if ng > 0 {
-        let g0 = d.gain_col(cfg);
-        let scale = (g0..g0 + ng).map(|a| ata[(a, a)]).sum::<f64>() / ng as f64;
-        for a in g0..g0 + ng {
+        let g0 = p - ng;
+        let scale = (g0..p).map(|a| ata[(a, a)]).sum::<f64>() / ng as f64;
+        for a in g0..p {
             ata[(a, a)] += 1e-6 * scale.max(1e-300);
         }
     }
