@@ -451,6 +451,9 @@ fn main() {
         (B_FORMS_40_HYST_G, b_forms_hysteresis_in_conductance(40.0)),
         (B_FORMS_200_HYST_G, b_forms_hysteresis_in_conductance(200.0)),
     ];
+    // TIPFORGE_DISCOVERY_VARIATION_SIGMA=3: the rows' effects at 3σ instead of 1σ (probes; a rail
+    // whose height is not set by its RMS keeps its height)
+    let k_sigma: f64 = std::env::var("TIPFORGE_DISCOVERY_VARIATION_SIGMA").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
     let from: usize = std::env::var("TIPFORGE_DISCOVERY_FROM_VARIATION").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
     for (vi, (label, f)) in variations.into_iter().enumerate() {
         // TIPFORGE_DISCOVERY_VARIATIONS=6,7: only those variations (their seeds as in the full run)
@@ -472,8 +475,6 @@ fn main() {
                 seed += 10 * n;
                 continue;
             }
-            // TIPFORGE_DISCOVERY_VARIATION_SIGMA=4: the rows' effects at 4σ instead of 1σ (probes)
-            let k_sigma: f64 = std::env::var("TIPFORGE_DISCOVERY_VARIATION_SIGMA").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
             let m = magnitude_for(&sv, (&pv, pre), e, k_sigma * sv.noise_v, topv);
             let mut s = sv.clone();
             e.set(&mut s, m, topv);
