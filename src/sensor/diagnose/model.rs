@@ -340,7 +340,7 @@ impl Design {
             0
         }
     }
-    /// Columns of the per-trial gains (the last columns of a row).
+    /// Columns of the per-trial gains (the last columns of a row but the rests', [`Design::gain_col`] on).
     pub(super) fn n_gains(&self, cfg: &Config) -> usize {
         if cfg.gains && !self.prior && self.n_trials >= 2 {
             GAIN_COLS * self.n_trials

@@ -258,12 +258,12 @@ pub(super) fn solve_normal(d: &Design, cfg: &Config, n: &Normal, support: Option
         }
     }
     // the per-trial gains and the shared levels trade one common factor: a faint ridge on the gains
-    // leaves it with the levels (the gains' mean near zero)
+    // leaves it with the levels (the gains' mean near zero); the rests' columns follow the gains'
     let ng = d.n_gains(cfg);
     if ng > 0 {
-        let g0 = p - ng;
-        let scale = (g0..p).map(|a| ata[(a, a)]).sum::<f64>() / ng as f64;
-        for a in g0..p {
+        let g0 = d.gain_col(cfg);
+        let scale = (g0..g0 + ng).map(|a| ata[(a, a)]).sum::<f64>() / ng as f64;
+        for a in g0..g0 + ng {
             ata[(a, a)] += 1e-6 * scale.max(1e-300);
         }
     }
@@ -350,5 +350,25 @@ mod tests {
         let (x_fold, _) = solve_normal(&b.d, &b.base_cfg, &sum_normals(&b.d, &b.base_cfg, &fold), None, 0.0).unwrap();
         let n_levels = b.d.n_levels();
         assert!(x_fold[3..n_levels].iter().zip(&x[3..n_levels]).any(|(a, b)| (a - b).abs() > 1e-9), "a fold without a trial fits the same levels");
+    }
+
+    /// The per-trial gains and the shared levels trade one common factor, which the gains' faint
+    /// ridge leaves with the levels: the gains' mean change of level stays near zero whether or not
+    /// the trials' rest relaxations (whose columns follow the gains') are in the model. (The ridge
+    /// was put on the last columns, the rests' and part of the gains', when both were there.)
+    #[test]
+    fn the_gains_ridge_is_on_the_gains_columns() {
+        let recs = fixture::recs(91_100, |s| s.nuisance.gain_jitter = 0.03);
+        let b = fixture::built(&recs);
+        let rows = all_rows(&b.trials);
+        let gains = Config { gains: true, ..b.base_cfg.clone() };
+        let both = Config { rest_tau: Some(100.0), ..gains.clone() };
+        let mean_gain = |c: &Config| {
+            let x = solve(&b.d, &b.trials, &rows, c, &b.hat).unwrap();
+            let g0 = b.d.gain_col(c);
+            (0..b.d.n_trials).map(|k| x[g0 + GAIN_COLS * k]).sum::<f64>() / b.d.n_trials as f64
+        };
+        let (alone, with_rests) = (mean_gain(&gains), mean_gain(&both));
+        assert!(alone.abs() < 1e-3 && with_rests.abs() < 1e-3, "the gains' mean change of level: {alone} alone, {with_rests} with the rests");
     }
 }
