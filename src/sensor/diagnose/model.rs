@@ -83,8 +83,9 @@ pub(super) struct Config {
     pub(super) rail_spans: Vec<(usize, f64, f64)>,
     /// With the relaxation spectrum: its grid, the load's ramp and the smoothness penalty.
     pub(super) relax: Option<Relax>,
-    /// A gain per trial (all but the first): the trials' step sizes differ by a factor (the
-    /// sensor's temperature, the hand), a nuisance, not physics of the sensor.
+    /// A gain per trial (every trial; a faint ridge leaves their common factor with the levels):
+    /// the trials' step sizes differ by a factor (the sensor's temperature, the hand), a nuisance,
+    /// not physics of the sensor.
     pub(super) gains: bool,
     /// A relaxation per trial from its first sample, with this time constant: what the sample
     /// brings from before the recording (how long it rested), a nuisance like the gains.
@@ -340,7 +341,7 @@ impl Design {
             0
         }
     }
-    /// Columns of the per-trial gains (the last columns of a row but the rests', [`Design::gain_col`] on).
+    /// Columns of the per-trial gains: from [`Design::gain_col`], just before the rests'.
     pub(super) fn n_gains(&self, cfg: &Config) -> usize {
         if cfg.gains && !self.prior && self.n_trials >= 2 {
             GAIN_COLS * self.n_trials

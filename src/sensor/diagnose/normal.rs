@@ -355,7 +355,8 @@ mod tests {
     /// The per-trial gains and the shared levels trade one common factor, which the gains' faint
     /// ridge leaves with the levels: the gains' mean change of level stays near zero whether or not
     /// the trials' rest relaxations (whose columns follow the gains') are in the model. (The ridge
-    /// was put on the last columns, the rests' and part of the gains', when both were there.)
+    /// was put on the last columns, the rests' and part of the gains', when both were there: it
+    /// pinned the third trial's gain instead of the gains' mean, which was then 0.037.)
     #[test]
     fn the_gains_ridge_is_on_the_gains_columns() {
         let recs = fixture::recs(91_100, |s| s.nuisance.gain_jitter = 0.03);
