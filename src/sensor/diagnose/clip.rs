@@ -75,23 +75,20 @@ fn ends_at(tr: &Trial, (t0_s, end_s): (f64, f64), clip: f64) -> bool {
     !last.is_empty() && crate::sensor::preprocess::median(&mut last) >= clip - tr.clip_margin.max(0.5 * tr.sigma).max(1e-12)
 }
 
-/// τ of the other steps as a straight line in the load (least squares), as the first-order
-/// model's τ(F) is; None with fewer than two other steps.
+/// τ of the other steps as a straight line in the load (least squares, `fashion::line`), as the
+/// first-order model's τ(F) is: (intercept, slope); None with fewer than two other steps.
 pub(super) fn tau_line(trials: &[Trial], skip: &[(usize, usize)]) -> Option<(f64, f64)> {
-    let free: Vec<(f64, f64)> = trials
+    let (loads, taus): (Vec<f64>, Vec<f64>) = trials
         .iter()
         .enumerate()
         .flat_map(|(k, tr)| tr.segs.iter().enumerate().filter(move |(s, _)| !skip.contains(&(k, *s))).map(|(_, sg)| (sg.load, sg.tau)))
         .filter(|p| p.1 > 0.0)
-        .collect();
-    if free.len() < 2 {
+        .unzip();
+    if loads.len() < 2 {
         return None;
     }
-    let n = free.len() as f64;
-    let (mx, my) = (free.iter().map(|p| p.0).sum::<f64>() / n, free.iter().map(|p| p.1).sum::<f64>() / n);
-    let sxx: f64 = free.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let b = if sxx > 0.0 { free.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx } else { 0.0 };
-    Some((my - b * mx, b))
+    let (slope, intercept, _) = crate::sensor::fashion::line(&loads, &taus);
+    Some((intercept, slope))
 }
 
 /// The onset of a step rising into the clip with time constant `tau`: a local first-order fit

@@ -246,26 +246,24 @@ pub(super) fn solve_normal(d: &Design, cfg: &Config, n: &Normal, support: Option
     if let (Some(rx), true) = (&cfg.relax, cfg.effects.contains(&Effect::Relaxation)) {
         let (k, m) = (rx.taus.len(), rx.sets() * rx.taus.len());
         let c0 = term_col(d, cfg, Effect::Relaxation);
-        let scale = (c0..c0 + m).map(|a| ata[(a, a)]).sum::<f64>() / m as f64;
+        let scale = mean_diagonal(&ata, c0..c0 + m);
         let pen = catalogue::relaxation::smoothness(k, rx.sets());
         for a in 0..m {
             for b in 0..m {
                 ata[(c0 + a, c0 + b)] += lambda * scale * pen[a * m + b];
             }
-            // a faint ridge keeps the spectrum determined where the data and the smoothness leave
-            // it free (a kernel set with no change of its kind)
-            ata[(c0 + a, c0 + a)] += 1e-6 * scale.max(1e-300);
         }
+        // a faint ridge keeps the spectrum determined where the data and the smoothness leave it
+        // free (a kernel set with no change of its kind)
+        faint_ridge(&mut ata, c0..c0 + m, scale);
     }
     // the per-trial gains and the shared levels trade one common factor: a faint ridge on the gains
     // leaves it with the levels (the gains' mean near zero); the rests' columns follow the gains'
     let ng = d.n_gains(cfg);
     if ng > 0 {
-        let g0 = d.gain_col(cfg);
-        let scale = (g0..g0 + ng).map(|a| ata[(a, a)]).sum::<f64>() / ng as f64;
-        for a in g0..g0 + ng {
-            ata[(a, a)] += 1e-6 * scale.max(1e-300);
-        }
+        let cols = d.gain_col(cfg)..d.gain_col(cfg) + ng;
+        let scale = mean_diagonal(&ata, cols.clone());
+        faint_ridge(&mut ata, cols, scale);
     }
     // tiny ridge keeps columns without data (a load absent from a fold) solvable at zero
     for a in 0..p {
@@ -284,6 +282,20 @@ pub(super) fn solve_normal(d: &Design, cfg: &Config, n: &Normal, support: Option
         }
     }
     Some((x, diag))
+}
+
+/// The mean of `ata`'s diagonal over the columns `cols` (not empty).
+fn mean_diagonal(ata: &DMatrix<f64>, cols: std::ops::Range<usize>) -> f64 {
+    let n = cols.len() as f64;
+    cols.map(|a| ata[(a, a)]).sum::<f64>() / n
+}
+
+/// A faint ridge on the columns `cols`, 10⁻⁶ of `scale` (their mean diagonal before any penalty):
+/// it settles what the data leave free there and nothing else.
+fn faint_ridge(ata: &mut DMatrix<f64>, cols: std::ops::Range<usize>, scale: f64) {
+    for a in cols {
+        ata[(a, a)] += 1e-6 * scale.max(1e-300);
+    }
 }
 
 /// The final refit of the first-order part's shape: every step's onset and every step key's time
