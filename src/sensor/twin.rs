@@ -83,7 +83,14 @@ pub fn sensor_toml(d: &Diagnosis, report: &Report, rec: &Recording) -> Result<St
     let _ = writeln!(t, "tau0_s = {}\ntau_per_n_s = {}", fmt(tau0), fmt(tau_per_n));
     let _ = writeln!(t, "\n[noise]\nsigma_v = {}", fmt(sigma));
     let _ = writeln!(t, "\n[rig]\npreload_g = {}", fmt(f.preload));
-    effects(&mut t, d);
+    // a share of the conductance's gap between two loads, in the simulator's conductance per
+    // newton of the force gap: matched over the whole span, from the top load to no load
+    // (G = g_ref F^n; exactly the share when n = 1)
+    let force = |g: f64| (g + f.preload) * N_PER_G;
+    let top_g = f.levels.iter().map(|l| l.0).fold(0.0, f64::max);
+    let (f_lo, f_hi) = (force(0.0), force(top_g));
+    let per_newton = if f_hi > f_lo { (f_hi.powf(f.n) - f_lo.powf(f.n)) / (f_hi - f_lo) } else { 1.0 };
+    effects(&mut t, d, per_newton);
     // what the simulator would refuse is refused here, with the fitted value named
     let src = crate::params::SourceFile::parse("twin", t.clone()).map_err(|e| format!("the fitted sensor is not a valid sensor file: {e}"))?;
     crate::params::sensor::SensorParams::from_source(&src).map_err(|e| format!("a fitted value is outside what the simulator accepts, so no twin is written: {e}"))?;
@@ -91,7 +98,9 @@ pub fn sensor_toml(d: &Diagnosis, report: &Report, rec: &Recording) -> Result<St
 }
 
 /// The `[effects.*]` tables: every physics finding in the simulator's form, or a comment.
-fn effects(t: &mut String, d: &Diagnosis) {
+/// `per_newton` turns a share of the conductance's gap into the simulator's conductance per
+/// newton of the force gap (over g_ref).
+fn effects(t: &mut String, d: &Diagnosis, per_newton: f64) {
     let num = |p: &serde_json::Value, k: &str| p.get(k).and_then(|v| v.as_f64());
     let _ = writeln!(t, "\n# effects found by the diagnosis (all others off)");
     for f in &d.findings {
@@ -115,8 +124,11 @@ fn effects(t: &mut String, d: &Diagnosis) {
                 }
             }
             "hysteresis" => {
-                if let Some(v) = num(p, "fraction") {
-                    let _ = writeln!(t, "[effects.hysteresis]\nfraction = {}", fmt(v));
+                // in the response, or in the conductance (a share of its gap, written per newton)
+                let in_conductance = p.get("in_conductance").and_then(|b| b.as_bool()).unwrap_or(false);
+                let share = if in_conductance { num(p, "conductance_fraction").map(|a| a * per_newton) } else { num(p, "fraction") };
+                if let Some(v) = share {
+                    let _ = writeln!(t, "[effects.hysteresis]\nfraction = {}\nin_conductance = {in_conductance}", fmt(v));
                     // a fading memory: the remembered load fades toward the present one, in
                     // the diagnosis as in the simulator
                     if let Some(m) = num(p, "memory_s") {

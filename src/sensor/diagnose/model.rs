@@ -98,6 +98,9 @@ pub(super) struct Config {
     /// Hysteresis whose peak memory fades toward the present level with this time (s); None: the
     /// peak is remembered for good.
     pub(super) hyst_memory_s: Option<f64>,
+    /// The hysteresis acts in the sensor's conductance and is seen through the read-out
+    /// (`TrialSteps::hysteresis_through_column`); false: in the response.
+    pub(super) hyst_through: bool,
     /// The creep term's form.
     pub(super) creep: CreepForm,
 }
@@ -230,6 +233,7 @@ impl Config {
             drift_tau: None,
             clip_rail: false,
             hyst_memory_s: None,
+            hyst_through: false,
             creep: CreepForm::Restarting,
         }
     }
@@ -423,6 +427,9 @@ impl Design {
                 Effect::Creep if cfg.creep.through() => out[col] = cur.map(|s| steps.creep_through_column(s, t)).unwrap_or(0.0),
                 Effect::Creep if cfg.creep.superposed() => out[col] = cur.map(|s| catalogue::creep::superposed_column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
+                Effect::Hysteresis if cfg.hyst_through && tr.readout.is_some() => {
+                    out[col] = cur.map(|s| steps.hysteresis_through_column(s, t, cfg.hyst_memory_s)).unwrap_or(0.0)
+                }
                 Effect::Hysteresis => {
                     out[col] = cur
                         .map(|s| match cfg.hyst_memory_s {
@@ -516,6 +523,20 @@ pub(super) fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx
 }
 
 impl TrialSteps<'_> {
+    /// A hysteresis of the sensor's conductance seen through the read-out: the gap in the
+    /// read-out's u (linear in the conductance) between the remembered peak's level and the
+    /// present load's, times the read-out's slope dV/du at the first-order part's response at `t`.
+    pub(super) fn hysteresis_through_column(&self, cur: usize, t: f64, memory_s: Option<f64>) -> f64 {
+        let Some(ro) = self.tr.readout else { return 0.0 };
+        let segs = &self.tr.segs;
+        let h = self.tr.half_span_s;
+        let first = self.hat.response_of(self.i, segs[0].prev) + (0..=cur).map(|q| self.dv(q) * rise(t, self.t0(q), self.tau(q), h, segs[q].input)).sum::<f64>();
+        let off = self.hat.response_of(self.i, segs[0].prev) - self.hat.level_of(segs[0].prev);
+        let u_at = |l: f64| ro.divider_u(off + self.hat.level_at(l)).unwrap_or(1.0);
+        let load = |q: usize| segs[q].load;
+        let gap_u = catalogue::hysteresis::fading_column(self, (cur, t), memory_s.unwrap_or(f64::INFINITY), (segs[0].prev, load), u_at);
+        ro.slope_du(first) * gap_u
+    }
     /// The step's change of the read-out's u (linear in the sensor's conductance), when the
     /// recording says how its response maps to it.
     pub(super) fn du(&self, q: usize) -> Option<f64> {
@@ -741,6 +762,32 @@ mod tests {
         let plain = Trial { readout: None, ..tr.clone() };
         let steps = TrialSteps { tr: &plain, ..steps };
         assert_eq!(steps.creep_through_column(1, 19.0), catalogue::creep::superposed_column(&steps, 1, 19.0));
+    }
+
+    /// A hysteresis of the conductance through a divider (sensor high, 3.3 V): nothing while the
+    /// load rises; on the unloading step, the read-out's slope dV/du at the first-order response
+    /// times the gap in u = Vcc/(Vcc − V) between the peak's level and the present load's, reached
+    /// with the step's own time constant; a preloaded trial's offset is part of the level.
+    #[test]
+    fn a_conductance_hysteresis_is_seen_through_the_readout() {
+        let vcc = 3.3;
+        let mut tr = Trial { readout: Some(crate::sensor::fashion::Readout::DividerHigh { vcc_v: vcc, r_m_ohm: 1000.0 }), ..trial(0.0) };
+        tr.segs.push(Seg { phase: Phase::Unloading, ..seg(2, 14.0, 2.0, 1.0, 1.0) });
+        let cfg = Config { effects: vec![Effect::Hysteresis], hyst_through: true, ..Config::first_order() };
+        let u = |v: f64| vcc / (vcc - v);
+        let rise = |t: f64, t0: f64, tau: f64| if t >= t0 { 1.0 - (-(t - t0) / tau).exp() } else { 0.0 };
+        for off in [0.0, 0.4] {
+            let hat = Hat { loads: vec![0.0, 1.0, 2.0], level: vec![0.0, 1.0, 1.6], offset: vec![off] };
+            let steps = TrialSteps { i: 0, tr: &tr, cfg: &cfg, hat: &hat, l0: 0.0, top: 1.6 };
+            for &(t, cur) in &[(4.0, 0), (10.0, 1), (14.5, 2), (19.0, 2)] {
+                let first = off + 1.0 * rise(t, 3.0, 0.8) + 0.6 * rise(t, 9.0, 1.5) - 0.6 * rise(t, 14.0, 1.0);
+                let gap = if cur == 2 { (u(off + 1.6) - u(off + 1.0)) * rise(t, 14.0, 1.0) } else { 0.0 };
+                let want = (vcc - first).powi(2) / vcc * gap;
+                let got = steps.hysteresis_through_column(cur, t, None);
+                assert!((got - want).abs() < 1e-12, "offset {off}, t {t}: {got} vs {want}");
+            }
+            assert!(steps.hysteresis_through_column(2, 19.0, None) > 0.1, "offset {off}");
+        }
     }
 
     /// The design row makes the model the superposition of first-order steps: with the offset and

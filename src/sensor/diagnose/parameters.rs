@@ -20,6 +20,15 @@ pub(super) fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Ha
             serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span, "superposed": true})
         }
         Effect::Creep => serde_json::json!({"per_decade_fraction": at(k), "time_s": catalogue::creep::TIME_S, "per_decade_at_top_load": at(k) * span}),
+        Effect::Hysteresis if c.hyst_through => {
+            // a share of the gap in the sensor's conductance between the remembered peak's load
+            // and the present one
+            let mut v = serde_json::json!({"conductance_fraction": at(k), "in_conductance": true});
+            if let Some(m) = c.hyst_memory_s {
+                v["memory_s"] = serde_json::json!(m);
+            }
+            v
+        }
         Effect::Hysteresis => match c.hyst_memory_s {
             Some(m) => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span, "memory_s": m}),
             None => serde_json::json!({"fraction": at(k), "offset_at_lowest_load": at(k) * span}),

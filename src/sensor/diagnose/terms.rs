@@ -87,6 +87,21 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
             }
             vec![c]
         }
+        Effect::Hysteresis => {
+            // in the response, or in the sensor's conductance seen through the read-out (when a
+            // trial says how its response maps to the conductance)
+            let through = trials.iter().any(|tr| tr.readout.is_some()) && std::env::var_os("TIPFORGE_NO_HYST_THROUGH").is_none();
+            [false, true]
+                .into_iter()
+                .filter(|&th| !th || through)
+                .map(|th| {
+                    let mut c = cur.clone();
+                    c.effects.push(e);
+                    c.hyst_through = th;
+                    c
+                })
+                .collect()
+        }
         _ => {
             let mut c = cur.clone();
             c.effects.push(e);
@@ -263,6 +278,7 @@ pub(super) fn without(cur: &Config, idx: usize) -> Config {
     }
     if e == Effect::Hysteresis {
         c.hyst_memory_s = None;
+        c.hyst_through = false;
     }
     if e == Effect::Creep {
         c.creep = CreepForm::Restarting;
@@ -295,8 +311,8 @@ mod tests {
             }
             let back = without(&c, idx);
             assert_eq!(
-                (&back.effects, back.clip, &back.tau_fixed, &back.restart, back.rest_tau, back.drift_tau, back.hyst_memory_s),
-                (&base.effects, base.clip, &base.tau_fixed, &base.restart, base.rest_tau, base.drift_tau, base.hyst_memory_s),
+                (&back.effects, back.clip, &back.tau_fixed, &back.restart, back.rest_tau, back.drift_tau, back.hyst_memory_s, back.hyst_through),
+                (&base.effects, base.clip, &base.tau_fixed, &base.restart, base.rest_tau, base.drift_tau, base.hyst_memory_s, base.hyst_through),
                 "{e:?}"
             );
             assert_eq!((back.creep, back.clip_rail, back.rail_spans.len()), (CreepForm::Restarting, false, 0), "{e:?}");
@@ -346,6 +362,29 @@ mod tests {
             let mean = on.iter().sum::<f64>() / on.len() as f64;
             assert!((mean - found).abs() < 0.005, "seed {seed}: the top holds predicted at {mean} V, the rail at {found} V");
             assert!(with.heldout_rmse < 1.05 * without.heldout_rmse, "seed {seed}: held out {} with the clip, {} without", with.heldout_rmse, without.heldout_rmse);
+        }
+    }
+
+    /// A hysteresis's form is chosen on the training fit: a hysteresis of the sensor's
+    /// conductance (family B's form: the unloading branch's conductance keeps a share of the
+    /// peak's force gap) is fitted through the read-out, and one that keeps a share of the
+    /// response's gap is fitted in the response; the form that fits names it the better held out.
+    #[test]
+    fn a_hysteresis_is_fitted_in_the_form_it_acts_in() {
+        for (k, in_g) in [false, true].into_iter().enumerate() {
+            let recs = fixture::recs(77_000 + 10 * k as u64, |s| {
+                s.effects.hysteresis = 0.01;
+                s.effects.hysteresis_in_conductance = in_g;
+            });
+            let b = fixture::built(&recs);
+            let steps = ClipSteps::of(&b.trials, clip_level(&b.trials), false);
+            let ctx = fixture::ctx(&b, &steps, &b.hat);
+            let c = candidate(Effect::Hysteresis, &b.base_cfg, &ctx).expect("a candidate");
+            assert_eq!(c.hyst_through, in_g, "in the conductance: {in_g}");
+            let other = Config { hyst_through: !in_g, ..c.clone() };
+            let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
+            let (o, _) = score(&b.d, &b.trials, &other, &b.hat).unwrap();
+            assert!(s.heldout_rmse < o.heldout_rmse, "in the conductance: {in_g}: held out {} in its form, {} in the other", s.heldout_rmse, o.heldout_rmse);
         }
     }
 }
