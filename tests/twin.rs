@@ -208,3 +208,22 @@ fn a_twin_carries_a_fading_hysteresis_memory() {
     assert!(e <= 1.1 * heldout, "twin {e} V vs held-out {heldout} V, truth {floor} V");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A hysteresis of the sensor's conductance (family B's form: the unloading branch's conductance
+/// gains h · (F_max − F) / 1 N · g_ref): diagnosed through the read-out, the twin writes it in the
+/// simulator's conductance form with h within 15 % (measured: 0.0197 for 0.02, hysteresis alone),
+/// and reproduces the recording within the bar, 1.1 × the improved model's held-out RMSE.
+/// (At h = 0.05, a 160 mV raise at no load, the diagnosis names a drift of 2e-5 V/s beside a
+/// hysteresis of 0.0467; the improved model follows the truth within 0.2 mV, but the twin, whose
+/// first-order part is the power law through the levels, misses the recording by 1.9× the held-out
+/// RMSE: not asserted, see BENCHMARKS.)
+#[test]
+fn a_twin_carries_a_conductance_hysteresis() {
+    let edit = [("fraction = 0.0            # unloading", "fraction = 0.02 # unloading"), ("in_conductance = false    # true: the conductance gains", "in_conductance = true # true: the conductance gains")];
+    let (d, t, heldout) = round_trip("hyst-conductance", 540, &edit);
+    assert!(t.effects.hysteresis_in_conductance, "the twin's hysteresis is in the response");
+    within("hysteresis", t.effects.hysteresis, 0.02, 0.15);
+    let (e, floor) = twin_error(&d, 540);
+    assert!(e <= 1.1 * heldout, "twin {e} V vs held-out {heldout} V, truth {floor} V");
+    let _ = std::fs::remove_dir_all(&d);
+}
