@@ -90,7 +90,7 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
         Effect::Hysteresis => {
             // in the response, or in the sensor's conductance seen through the read-out (when a
             // trial says how its response maps to the conductance)
-            let through = trials.iter().any(|tr| tr.readout.is_some()) && std::env::var_os("TIPFORGE_NO_HYST_THROUGH").is_none();
+            let through = trials.iter().any(|tr| tr.readout.is_some());
             [false, true]
                 .into_iter()
                 .filter(|&th| !th || through)
