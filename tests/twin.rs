@@ -216,7 +216,7 @@ fn a_twin_carries_a_fading_hysteresis_memory() {
 /// (At h = 0.05, a 160 mV raise at no load, the diagnosis names a drift of 2e-5 V/s beside a
 /// hysteresis of 0.0467; the improved model follows the truth within 0.2 mV, but the twin, whose
 /// first-order part is the power law through the levels, misses the recording by 1.9× the held-out
-/// RMSE: not asserted, see BENCHMARKS.)
+/// RMSE: not asserted; BENCHMARKS, stop 49.)
 #[test]
 fn a_twin_carries_a_conductance_hysteresis() {
     let edit = [("fraction = 0.0            # unloading", "fraction = 0.02 # unloading"), ("in_conductance = false    # true: the conductance gains", "in_conductance = true # true: the conductance gains")];

@@ -12,6 +12,9 @@ use super::{offset_z, sig3, Hold, Located, Steps, MIN_SIGNATURE_Z};
 
 pub const EXPLANATION: &str = "at the same load the unloading branch stays away from the loading branch: the contact area remembers the highest load, modelled as an offset proportional to the gap to the maximum-load level";
 
+/// The explanation of the hysteresis of the sensor's conductance seen through the read-out.
+pub const THROUGH_EXPLANATION: &str = "at the same load the unloading branch stays away from the loading branch: the contact area remembers the highest load, modelled as a share of the gap in the sensor's conductance between the remembered load and the present one, seen through the read-out (a divider shows it in full near no load and compressed at its top)";
+
 /// The term's column at time t, with step `cur` the latest that has begun.
 pub fn column(s: &impl Steps, cur: usize, t: f64) -> f64 {
     let h = |q: usize| if s.after_peak(q) { s.below_top(q) } else { 0.0 };

@@ -531,11 +531,16 @@ impl TrialSteps<'_> {
         let segs = &self.tr.segs;
         let h = self.tr.half_span_s;
         let first = self.hat.response_of(self.i, segs[0].prev) + (0..=cur).map(|q| self.dv(q) * rise(t, self.t0(q), self.tau(q), h, segs[q].input)).sum::<f64>();
-        let off = self.hat.response_of(self.i, segs[0].prev) - self.hat.level_of(segs[0].prev);
-        let u_at = |l: f64| ro.divider_u(off + self.hat.level_at(l)).unwrap_or(1.0);
+        let off = self.hat.offset.get(self.i).copied().unwrap_or(0.0);
+        // a level the read-out cannot convert (at or past its end) leaves the step out, as `du` does
+        let u_at = |l: f64| ro.divider_u(off + self.hat.level_at(l)).unwrap_or(f64::NAN);
         let load = |q: usize| segs[q].load;
         let gap_u = catalogue::hysteresis::fading_column(self, (cur, t), memory_s.unwrap_or(f64::INFINITY), (segs[0].prev, load), u_at);
-        ro.slope_du(first) * gap_u
+        if gap_u.is_finite() {
+            ro.slope_du(first) * gap_u
+        } else {
+            0.0
+        }
     }
     /// The step's change of the read-out's u (linear in the sensor's conductance), when the
     /// recording says how its response maps to it.

@@ -75,6 +75,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
                         Effect::SecondTimeConstant => c.drive.explanation().to_string(),
                         Effect::Saturation if c.clip_rail => catalogue::saturation::RAIL_EXPLANATION.to_string(),
                         Effect::Creep if c.creep.through() => catalogue::creep::THROUGH_EXPLANATION.to_string(),
+                        Effect::Hysteresis if c.hyst_through => catalogue::hysteresis::THROUGH_EXPLANATION.to_string(),
                         _ => e.explanation().to_string(),
                     },
                     windows,
@@ -347,6 +348,7 @@ fn rename(findings: &mut [Finding], named: Effect, b: &alternatives::Better, cur
     f.explanation = match b.effect {
         Effect::Creep if b.cfg.creep.through() => catalogue::creep::THROUGH_EXPLANATION.to_string(),
         Effect::Creep if b.cfg.creep.superposed() => catalogue::creep::SUPERPOSED_EXPLANATION.to_string(),
+        Effect::Hysteresis if b.cfg.hyst_through => catalogue::hysteresis::THROUGH_EXPLANATION.to_string(),
         Effect::SecondTimeConstant => b.cfg.drive.explanation().to_string(),
         e => e.explanation().to_string(),
     };

@@ -88,9 +88,9 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
             vec![c]
         }
         Effect::Hysteresis => {
-            // in the response, or in the sensor's conductance seen through the read-out (when a
-            // trial says how its response maps to the conductance)
-            let through = trials.iter().any(|tr| tr.readout.is_some());
+            // in the response, or in the sensor's conductance seen through the read-out (when every
+            // trial says how its response maps to the conductance, as for the conductance's creep)
+            let through = !trials.is_empty() && trials.iter().all(|tr| tr.readout.is_some());
             [false, true]
                 .into_iter()
                 .filter(|&th| !th || through)
@@ -366,9 +366,10 @@ mod tests {
     }
 
     /// A hysteresis's form is chosen on the training fit: a hysteresis of the sensor's
-    /// conductance (family B's form: the unloading branch's conductance keeps a share of the
-    /// peak's force gap) is fitted through the read-out, and one that keeps a share of the
-    /// response's gap is fitted in the response; the form that fits names it the better held out.
+    /// conductance (family B's form: on the unloading branch the conductance gains
+    /// h · (F_max − F) / 1 N · g_ref) is fitted through the read-out, and one that keeps a share
+    /// of the response's gap to the top level is fitted in the response; each form chosen also
+    /// predicts the held-out data better than the other form.
     #[test]
     fn a_hysteresis_is_fitted_in_the_form_it_acts_in() {
         for (k, in_g) in [false, true].into_iter().enumerate() {
