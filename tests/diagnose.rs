@@ -756,7 +756,14 @@ fn a_term_of_the_other_sign_after_the_final_refit_leaves_the_model() {
         let d = diagnose(&recs, &Default::default()).unwrap();
         assert!(d.findings.iter().any(|f| f.effect == "second_time_constant"), "seed {seed0}: {:?}", d.final_.effects);
         for f in d.findings.iter().filter(|f| matches!(f.effect, "creep" | "hysteresis")) {
-            let frac = f.term.params.get("fraction").or_else(|| f.term.params.get("per_decade_fraction")).or_else(|| f.term.params.get("conductance_fraction")).and_then(|v| v.as_f64()).unwrap_or(0.0);
+            let frac = f
+                .term
+                .params
+                .get("fraction")
+                .or_else(|| f.term.params.get("per_decade_fraction"))
+                .or_else(|| f.term.params.get("conductance_fraction"))
+                .and_then(|v| v.as_f64())
+                .unwrap_or(0.0);
             assert!(frac >= 0.0, "seed {seed0}: {} of fraction {frac} in the final model", f.effect);
         }
         assert!(d.final_.effects.iter().all(|e| d.findings.iter().any(|f| f.effect == *e) || *e == "rest_relaxation"), "seed {seed0}: {:?}", d.final_.effects);

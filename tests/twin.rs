@@ -219,7 +219,10 @@ fn a_twin_carries_a_fading_hysteresis_memory() {
 /// RMSE: not asserted; BENCHMARKS, stop 49.)
 #[test]
 fn a_twin_carries_a_conductance_hysteresis() {
-    let edit = [("fraction = 0.0            # unloading", "fraction = 0.02 # unloading"), ("in_conductance = false    # true: the conductance gains", "in_conductance = true # true: the conductance gains")];
+    let edit = [
+        ("fraction = 0.0            # unloading", "fraction = 0.02 # unloading"),
+        ("in_conductance = false    # true: the conductance gains", "in_conductance = true # true: the conductance gains"),
+    ];
     let (d, t, heldout) = round_trip("hyst-conductance", 540, &edit);
     assert!(t.effects.hysteresis_in_conductance, "the twin's hysteresis is in the response");
     within("hysteresis", t.effects.hysteresis, 0.02, 0.15);

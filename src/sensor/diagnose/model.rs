@@ -427,9 +427,7 @@ impl Design {
                 Effect::Creep if cfg.creep.through() => out[col] = cur.map(|s| steps.creep_through_column(s, t)).unwrap_or(0.0),
                 Effect::Creep if cfg.creep.superposed() => out[col] = cur.map(|s| catalogue::creep::superposed_column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
-                Effect::Hysteresis if cfg.hyst_through && tr.readout.is_some() => {
-                    out[col] = cur.map(|s| steps.hysteresis_through_column(s, t, cfg.hyst_memory_s)).unwrap_or(0.0)
-                }
+                Effect::Hysteresis if cfg.hyst_through && tr.readout.is_some() => out[col] = cur.map(|s| steps.hysteresis_through_column(s, t, cfg.hyst_memory_s)).unwrap_or(0.0),
                 Effect::Hysteresis => {
                     out[col] = cur
                         .map(|s| match cfg.hyst_memory_s {
@@ -523,14 +521,20 @@ pub(super) fn relax_columns(i: usize, tr: &Trial, steps: &TrialSteps, t: f64, rx
 }
 
 impl TrialSteps<'_> {
+    /// The first-order part's response at `t` (the trial's offset included), step `cur` the
+    /// latest begun: where a read-out's slope is taken.
+    fn first_order_at(&self, cur: usize, t: f64) -> f64 {
+        let segs = &self.tr.segs;
+        let h = self.tr.half_span_s;
+        self.hat.response_of(self.i, segs[0].prev) + (0..=cur).map(|q| self.dv(q) * rise(t, self.t0(q), self.tau(q), h, segs[q].input)).sum::<f64>()
+    }
     /// A hysteresis of the sensor's conductance seen through the read-out: the gap in the
     /// read-out's u (linear in the conductance) between the remembered peak's level and the
     /// present load's, times the read-out's slope dV/du at the first-order part's response at `t`.
     pub(super) fn hysteresis_through_column(&self, cur: usize, t: f64, memory_s: Option<f64>) -> f64 {
         let Some(ro) = self.tr.readout else { return 0.0 };
         let segs = &self.tr.segs;
-        let h = self.tr.half_span_s;
-        let first = self.hat.response_of(self.i, segs[0].prev) + (0..=cur).map(|q| self.dv(q) * rise(t, self.t0(q), self.tau(q), h, segs[q].input)).sum::<f64>();
+        let first = self.first_order_at(cur, t);
         let off = self.hat.offset.get(self.i).copied().unwrap_or(0.0);
         // a level the read-out cannot convert (at or past its end) leaves the step out, as `du` does
         let u_at = |l: f64| ro.divider_u(off + self.hat.level_at(l)).unwrap_or(f64::NAN);
@@ -559,9 +563,7 @@ impl TrialSteps<'_> {
         // the slope where the sensor is (within a step's rise too: the slope at the held level
         // alone misfits a true creep of this form by 4 % RMS on family A, at the first-order level
         // by 0.05 %)
-        let segs = &self.tr.segs;
-        let h = self.tr.half_span_s;
-        let first = self.hat.response_of(self.i, segs[0].prev) + (0..=cur).map(|q| self.dv(q) * rise(t, self.t0(q), self.tau(q), h, segs[q].input)).sum::<f64>();
+        let first = self.first_order_at(cur, t);
         let clock = |q: usize| (1.0 + catalogue::since(t, self.t0(q)) / catalogue::creep::TIME_S).log10();
         let creep_u = (0..=cur).map(|q| self.du(q).unwrap_or(0.0) * clock(q)).sum::<f64>();
         // exactly at the fraction given (a large creep spans much of the read-out's curve)
