@@ -427,7 +427,7 @@ impl Design {
                 Effect::Creep if cfg.creep.through() => out[col] = cur.map(|s| steps.creep_through_column(s, t)).unwrap_or(0.0),
                 Effect::Creep if cfg.creep.superposed() => out[col] = cur.map(|s| catalogue::creep::superposed_column(&steps, s, t)).unwrap_or(0.0),
                 Effect::Creep => out[col] = cur.map(|s| catalogue::creep::column(&steps, s, t)).unwrap_or(0.0),
-                Effect::Hysteresis if cfg.hyst_through && tr.readout.is_some() => out[col] = cur.map(|s| steps.hysteresis_through_column(s, t, cfg.hyst_memory_s)).unwrap_or(0.0),
+                Effect::Hysteresis if cfg.hyst_through => out[col] = cur.map(|s| steps.hysteresis_through_column(s, t)).unwrap_or(0.0),
                 Effect::Hysteresis => {
                     out[col] = cur
                         .map(|s| match cfg.hyst_memory_s {
@@ -530,8 +530,10 @@ impl TrialSteps<'_> {
     }
     /// A hysteresis of the sensor's conductance seen through the read-out: the gap in the
     /// read-out's u (linear in the conductance) between the remembered peak's level and the
-    /// present load's, times the read-out's slope dV/du at the first-order part's response at `t`.
-    pub(super) fn hysteresis_through_column(&self, cur: usize, t: f64, memory_s: Option<f64>) -> f64 {
+    /// present load's, times the read-out's slope dV/du at the first-order part's response at `t`
+    /// (the peak's memory as the model has it; 0 without a read-out: the form is offered only
+    /// when every trial has one).
+    pub(super) fn hysteresis_through_column(&self, cur: usize, t: f64) -> f64 {
         let Some(ro) = self.tr.readout else { return 0.0 };
         let segs = &self.tr.segs;
         let first = self.first_order_at(cur, t);
@@ -539,7 +541,7 @@ impl TrialSteps<'_> {
         // a level the read-out cannot convert (at or past its end) leaves the step out, as `du` does
         let u_at = |l: f64| ro.divider_u(off + self.hat.level_at(l)).unwrap_or(f64::NAN);
         let load = |q: usize| segs[q].load;
-        let gap_u = catalogue::hysteresis::fading_column(self, (cur, t), memory_s.unwrap_or(f64::INFINITY), (segs[0].prev, load), u_at);
+        let gap_u = catalogue::hysteresis::fading_column(self, (cur, t), self.cfg.hyst_memory_s.unwrap_or(f64::INFINITY), (segs[0].prev, load), u_at);
         if gap_u.is_finite() {
             ro.slope_du(first) * gap_u
         } else {
@@ -790,10 +792,10 @@ mod tests {
                 let first = off + 1.0 * rise(t, 3.0, 0.8) + 0.6 * rise(t, 9.0, 1.5) - 0.6 * rise(t, 14.0, 1.0);
                 let gap = if cur == 2 { (u(off + 1.6) - u(off + 1.0)) * rise(t, 14.0, 1.0) } else { 0.0 };
                 let want = (vcc - first).powi(2) / vcc * gap;
-                let got = steps.hysteresis_through_column(cur, t, None);
+                let got = steps.hysteresis_through_column(cur, t);
                 assert!((got - want).abs() < 1e-12, "offset {off}, t {t}: {got} vs {want}");
             }
-            assert!(steps.hysteresis_through_column(2, 19.0, None) > 0.1, "offset {off}");
+            assert!(steps.hysteresis_through_column(2, 19.0) > 0.1, "offset {off}");
         }
     }
 

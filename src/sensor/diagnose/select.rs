@@ -71,13 +71,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
                 findings.push(Finding {
                     effect: e.name(),
                     confidence: confidence(dbic, gain),
-                    explanation: match e {
-                        Effect::SecondTimeConstant => c.drive.explanation().to_string(),
-                        Effect::Saturation if c.clip_rail => catalogue::saturation::RAIL_EXPLANATION.to_string(),
-                        Effect::Creep if c.creep.through() => catalogue::creep::THROUGH_EXPLANATION.to_string(),
-                        Effect::Hysteresis if c.hyst_through => catalogue::hysteresis::THROUGH_EXPLANATION.to_string(),
-                        _ => e.explanation().to_string(),
-                    },
+                    explanation: explanation(e, &c),
                     windows,
                     term: Term { name: format!("{}_term", e.name()), params },
                     heldout_rmse_before: cur_score.heldout_rmse,
@@ -340,18 +334,25 @@ fn as_rest_state(findings: &mut Vec<Finding>, nuisances: &mut Vec<NuisanceTerm>,
     nuisances.push(nt);
 }
 
+/// A finding's explanation: its effect's, in the form the model `c` gives its term.
+fn explanation(e: Effect, c: &Config) -> String {
+    match e {
+        Effect::Creep if c.creep.through() => catalogue::creep::THROUGH_EXPLANATION,
+        Effect::Creep if c.creep.superposed() => catalogue::creep::SUPERPOSED_EXPLANATION,
+        Effect::Hysteresis if c.hyst_through => catalogue::hysteresis::THROUGH_EXPLANATION,
+        Effect::Saturation if c.clip_rail => catalogue::saturation::RAIL_EXPLANATION,
+        Effect::SecondTimeConstant => c.drive.explanation(),
+        _ => e.explanation(),
+    }
+    .to_string()
+}
+
 /// The finding named `named` given to the better explanation `b` in its place: its name, term,
 /// explanation and evidence (its windows are where the residual was located, and stay).
 fn rename(findings: &mut [Finding], named: Effect, b: &alternatives::Better, cur_score: &Score, d: &Design, hat: &Hat) {
     let Some(f) = findings.iter_mut().find(|f| f.effect == named.name()) else { return };
     f.effect = b.effect.name();
-    f.explanation = match b.effect {
-        Effect::Creep if b.cfg.creep.through() => catalogue::creep::THROUGH_EXPLANATION.to_string(),
-        Effect::Creep if b.cfg.creep.superposed() => catalogue::creep::SUPERPOSED_EXPLANATION.to_string(),
-        Effect::Hysteresis if b.cfg.hyst_through => catalogue::hysteresis::THROUGH_EXPLANATION.to_string(),
-        Effect::SecondTimeConstant => b.cfg.drive.explanation().to_string(),
-        e => e.explanation().to_string(),
-    };
+    f.explanation = explanation(b.effect, &b.cfg);
     f.term = Term { name: format!("{}_term", b.effect.name()), params: term_params(d, &b.cfg, &b.x, b.effect, hat) };
     f.delta_bic += b.score.bic - cur_score.bic;
     f.heldout_rmse_after = b.score.heldout_rmse;
