@@ -44,6 +44,11 @@ pub struct Effects {
     /// Fraction of each step in a second, slower relaxation, and its time constant.
     pub second_fraction: f64,
     pub second_tau_s: f64,
+    /// The second relaxation is the sensor's conductance's, seen through the read-out (family B's
+    /// form): the conductance is the mix (1 − fraction) · G_fast + fraction · G_slow, G_slow
+    /// relaxing toward the conductance of the present target with `second_tau_s`; instead of the
+    /// response being that mix of two relaxations.
+    pub second_in_conductance: bool,
     /// Baseline drift: linear rate and a slow sinusoidal wander.
     pub drift_v_per_s: f64,
     /// With a time constant (> 0): the drift is an exponential warm-up from each trial's start,
@@ -144,7 +149,7 @@ static RIG: Schema = Schema { fields: || &["preload_g"], tables: &[] };
 static COVER: Schema = Schema { fields: || &["dome_stiffness_n_per_mm", "contact_diameter_mm", "relax_fraction", "tau_s"], tables: &[] };
 static CREEP: Schema = Schema { fields: || &["per_decade", "time_s", "superposed", "in_conductance"], tables: &[] };
 static HYST: Schema = Schema { fields: || &["fraction", "memory_s", "in_conductance"], tables: &[] };
-static SECOND: Schema = Schema { fields: || &["fraction", "tau_s"], tables: &[] };
+static SECOND: Schema = Schema { fields: || &["fraction", "tau_s", "in_conductance"], tables: &[] };
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s", "warmup_tau_s"], tables: &[] };
 static SAT: Schema = Schema { fields: || &["level_v", "before_noise"], tables: &[] };
 static NUISANCE: Schema = Schema { fields: || &["gain_jitter", "rest_v", "rest_tau_s", "rest_raised", "noise_ar_rho", "noise_ar_share"], tables: &[] };
@@ -260,7 +265,13 @@ impl SensorParams {
             "in_conductance",
             "use true (the conductance keeps a share of the peak's force gap, seen through the read-out) or false (the response keeps a share of the peak's level)",
         );
+        let second_in_conductance = switch(
+            "second_time_constant",
+            "in_conductance",
+            "use true (the conductance relaxes a second time, seen through the read-out) or false (the response does)",
+        );
         let eff = Effects {
+            second_in_conductance,
             saturation_before_noise: before_noise,
             creep_superposed: superposed,
             creep_in_conductance: in_conductance,

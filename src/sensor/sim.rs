@@ -172,6 +172,17 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
     let f0 = force_of(0.0);
     let mut v_fast = p.v_eq(f0);
     let mut v_slow = v_fast;
+    // the second relaxation of the conductance (`second_in_conductance`): its slow part, in S
+    let mut g_slow = p.conductance_of(v_fast);
+    // the first-order part: the mix of the fast and slow relaxations, in the response or in the
+    // conductance seen through the read-out
+    let mix = |v_fast: f64, v_slow: f64, g_slow: f64| {
+        if e.second_in_conductance && e.second_fraction > 0.0 {
+            p.response((1.0 - e.second_fraction) * p.conductance_of(v_fast) + e.second_fraction * g_slow)
+        } else {
+            (1.0 - e.second_fraction) * v_fast + e.second_fraction * v_slow
+        }
+    };
     let mut v_cov = 0.0;
     let mut creep_carry = 0.0;
     let mut t_change = 0.0;
@@ -185,7 +196,7 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
         while ev_i < events.len() && events[ev_i].0 <= tk + 1e-12 {
             let (tl, after, phase, idx) = events[ev_i];
             let f_after = force_of(after);
-            let v_start = (1.0 - e.second_fraction) * v_fast + e.second_fraction * v_slow;
+            let v_start = mix(v_fast, v_slow, g_slow);
             let veq = p.v_eq(f_after);
             steps.push(TruthStep {
                 phase,
@@ -220,13 +231,16 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
             let tau = p.tau(f);
             v_fast = target + (v_fast - target) * (-dt / tau).exp();
             v_slow = target + (v_slow - target) * (-dt / e.second_tau_s).exp();
+            let g_target = p.conductance_of(target);
+            g_slow = g_target + (g_slow - g_target) * (-dt / e.second_tau_s).exp();
             let cov_target = if cover.is_some() { p.cover_relax_fraction * (target - p.v_eq(f0)) } else { 0.0 };
             v_cov = cov_target + (v_cov - cov_target) * (-dt / p.cover_tau_s).exp();
         } else {
             v_fast = target;
             v_slow = target;
+            g_slow = p.conductance_of(target);
         }
-        let first = (1.0 - e.second_fraction) * v_fast + e.second_fraction * v_slow;
+        let first = mix(v_fast, v_slow, g_slow);
         creep_now = creep(p, (f0, f), tk, &steps, (t_change, creep_carry));
         // a creep of the conductance shows through the divider at the level the sensor is at
         let creep_v = if e.creep_in_conductance && creep_now != 0.0 { p.response(p.conductance_of(first) + creep_now) - first } else { creep_now };

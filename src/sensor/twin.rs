@@ -138,7 +138,8 @@ fn effects(t: &mut String, d: &Diagnosis, per_newton: f64) {
             }
             "second_time_constant" => match (num(p, "fraction"), num(p, "tau2_s")) {
                 (Some(v), Some(tau)) => {
-                    let _ = writeln!(t, "[effects.second_time_constant]\nfraction = {}\ntau_s = {}", fmt(v), fmt(tau));
+                    let in_conductance = p.get("in_conductance").and_then(|b| b.as_bool()).unwrap_or(false);
+                    let _ = writeln!(t, "[effects.second_time_constant]\nfraction = {}\ntau_s = {}\nin_conductance = {in_conductance}", fmt(v), fmt(tau));
                 }
                 _ => {
                     let _ = writeln!(t, "# second_time_constant driven by the size of the change: the simulator's is a fraction of each step (not written)");

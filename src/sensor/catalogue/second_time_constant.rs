@@ -5,12 +5,16 @@
 //! Term: with the change (a dome or cover relaxing on its own), the step's change split between its
 //! own time constant and τ2, dv·(e^(−t/τ) − e^(−t/τ2)); or with the size of the change (any
 //! change disturbs the material, which recovers over τ2, whichever way the load moved),
-//! |dv|·e^(−t/τ2), one coefficient after loading steps and one after unloading steps. τ2 and the
-//! drive are shape parameters chosen on the training fit.
+//! |dv|·e^(−t/τ2), one coefficient after loading steps and one after unloading steps; or with the
+//! change of the sensor's conductance, seen through the read-out (the diagnosis's
+//! `TrialSteps::second_through_column`, which knows the read-out). τ2 and the drive are shape
+//! parameters chosen on the training fit.
 
 use super::{Hold, Located, Steps, MIN_SIGNATURE_Z};
 
 pub const EXPLANATION: &str = "part of each step relaxes with a second, slower time constant (the dome or a cover relaxing on its own), modelled as a mixture of two exponentials";
+
+pub const THROUGH_EXPLANATION: &str = "part of each change of the sensor's conductance relaxes with a second, slower time constant, seen through the read-out (a divider shows it in full near no load and compressed at its top), modelled as a mixture of two exponentials in the conductance";
 
 pub const EXPLANATION_SIZE: &str = "every change of load, up or down alike, sets off a second, slower relaxation of its own: the response jumps with the change and relaxes back over τ2, whichever way the load moved — the conductive network is disturbed by any deformation and re-forms slowly (seen in carbon-black elastomers); modelled as a decaying jump in proportion to the size of the change, after loading and unloading steps apart";
 
@@ -21,12 +25,14 @@ pub enum Drive {
     Change,
     /// The size of the change, either way.
     Size,
+    /// The change of the sensor's conductance, with its sign, seen through the read-out.
+    Through,
 }
 
 impl Drive {
     pub fn columns(self) -> usize {
         match self {
-            Drive::Change => 1,
+            Drive::Change | Drive::Through => 1,
             Drive::Size => 2,
         }
     }
@@ -34,22 +40,26 @@ impl Drive {
         match self {
             Drive::Change => "the change",
             Drive::Size => "the size of the change",
+            Drive::Through => "the change of the conductance",
         }
     }
     pub fn explanation(self) -> &'static str {
         match self {
             Drive::Change => EXPLANATION,
             Drive::Size => EXPLANATION_SIZE,
+            Drive::Through => THROUGH_EXPLANATION,
         }
     }
 }
 
-/// The term's columns at time t (`out` holds `drive.columns()` values), from the steps begun.
+/// The term's columns at time t (`out` holds `drive.columns()` values), from the steps begun; the
+/// conductance's form (`Drive::Through`) needs the read-out and is the diagnosis's: here it is
+/// taken in the response, as `Drive::Change`.
 pub fn columns(s: &impl Steps, active: &[usize], t: f64, tau2_s: f64, drive: Drive, out: &mut [f64]) {
     for &q in active {
         let since = super::since(t, s.t0(q));
         match drive {
-            Drive::Change => out[0] += s.dv(q) * (super::decay(since / s.tau(q)) - super::decay(since / tau2_s)),
+            Drive::Change | Drive::Through => out[0] += s.dv(q) * (super::decay(since / s.tau(q)) - super::decay(since / tau2_s)),
             // the size drive holds |dv| over the half filtered span before the onset (its value at
             // the onset, as e^(half span/τ2) ≈ 1 gave before `since`); 0 there, as the spectrum's kernels
             // are, let a false 2 s second τ in on a creep (`tests/advice.rs`,

@@ -439,6 +439,7 @@ impl Design {
                         })
                         .unwrap_or(0.0)
                 }
+                Effect::SecondTimeConstant if cfg.drive == Drive::Through => out[col] = cur.map(|s| steps.second_through_column(landed, s, t)).unwrap_or(0.0),
                 Effect::SecondTimeConstant => catalogue::second_time_constant::columns(&steps, landed, t, cfg.tau2, cfg.drive, &mut out[col..col + cfg.drive.columns()]),
                 Effect::BaselineDrift => out[col] = catalogue::baseline_drift::column(t, tr.t[0], cfg.drift_tau),
                 Effect::Relaxation => {
@@ -547,6 +548,23 @@ impl TrialSteps<'_> {
         } else {
             0.0
         }
+    }
+    /// A second relaxation of the sensor's conductance seen through the read-out: every landed
+    /// step's change of u, a share of it relaxing at τ2 instead of at the step's own τ (as
+    /// `Drive::Change` does in the response), times the read-out's slope dV/du at the first-order
+    /// part's response at `t` (0 without a read-out: the form is offered only when every trial has
+    /// one).
+    pub(super) fn second_through_column(&self, landed: &[usize], cur: usize, t: f64) -> f64 {
+        let Some(ro) = self.tr.readout else { return 0.0 };
+        let tau2 = self.cfg.tau2;
+        let in_u: f64 = landed
+            .iter()
+            .map(|&q| {
+                let since = catalogue::since(t, self.t0(q));
+                self.du(q).unwrap_or(0.0) * (catalogue::decay(since / self.tau(q)) - catalogue::decay(since / tau2))
+            })
+            .sum();
+        ro.slope_du(self.first_order_at(cur, t)) * in_u
     }
     /// The step's change of the read-out's u (linear in the sensor's conductance), when the
     /// recording says how its response maps to it.
@@ -797,6 +815,41 @@ mod tests {
             }
             assert!(steps.hysteresis_through_column(2, 19.0) > 0.1, "offset {off}");
         }
+    }
+
+    /// A second relaxation of the conductance through a divider (sensor high, 3.3 V): the read-out's
+    /// slope dV/du at the first-order response times every landed change's u, its share split
+    /// between the step's own τ and τ2, by hand; larger per unit of u near no load than at the top
+    /// (a divider compresses its top).
+    #[test]
+    fn a_conductance_second_relaxation_is_seen_through_the_readout() {
+        let vcc = 3.3;
+        let tr = Trial { readout: Some(crate::sensor::fashion::Readout::DividerHigh { vcc_v: vcc, r_m_ohm: 1000.0 }), ..trial(0.0) };
+        let cfg = Config { effects: vec![Effect::SecondTimeConstant], drive: Drive::Through, tau2: 20.0, ..Config::first_order() };
+        let hat = Hat { loads: vec![0.0, 1.0, 2.0], level: vec![0.0, 1.0, 1.6], offset: vec![] };
+        let steps = TrialSteps { i: 0, tr: &tr, cfg: &cfg, hat: &hat, l0: 0.0, top: 1.6 };
+        let u = |v: f64| vcc / (vcc - v);
+        let rise = |t: f64, t0: f64, tau: f64| if t >= t0 { 1.0 - (-(t - t0) / tau).exp() } else { 0.0 };
+        let split = |t: f64, t0: f64, tau: f64| if t >= t0 { (-(t - t0) / tau).exp() - (-(t - t0) / 20.0).exp() } else { 0.0 };
+        for &t in &[4.0, 8.5, 9.5, 19.0] {
+            let cur = usize::from(t >= 9.0);
+            let landed: Vec<usize> = (0..=cur).collect();
+            let first = 1.0 * rise(t, 3.0, 0.8) + 0.6 * rise(t, 9.0, 1.5);
+            let in_u = (u(1.0) - u(0.0)) * split(t, 3.0, 0.8) + (u(1.6) - u(1.0)) * split(t, 9.0, 1.5);
+            let want = (vcc - first).powi(2) / vcc * in_u;
+            let got = steps.second_through_column(&landed, cur, t);
+            assert!((got - want).abs() < 1e-12 * want.abs().max(1.0), "t {t}: {got} vs {want}");
+            assert!(got < 0.0, "t {t}: the slow share lags the step ({got})");
+        }
+        // per unit of u the top shows less than the bottom
+        let per_u = |cur: usize, t: f64| {
+            let landed: Vec<usize> = (0..=cur).collect();
+            steps.second_through_column(&landed, cur, t) / landed.iter().map(|&q| steps.du(q).unwrap() * split(t, steps.t0(q), steps.tau(q))).sum::<f64>()
+        };
+        assert!(per_u(1, 19.0) < 0.6 * per_u(0, 8.5), "{} {}", per_u(1, 19.0), per_u(0, 8.5));
+        // without a read-out, nothing (the form is offered only with one)
+        let plain = Trial { readout: None, ..tr.clone() };
+        assert_eq!(TrialSteps { tr: &plain, ..steps }.second_through_column(&[0, 1], 1, 19.0), 0.0);
     }
 
     /// The design row makes the model the superposition of first-order steps: with the offset and

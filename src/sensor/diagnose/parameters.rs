@@ -40,6 +40,7 @@ pub(super) fn term_params(d: &Design, c: &Config, x: &[f64], e: Effect, hat: &Ha
         Effect::SecondTimeConstant if c.drive == Drive::Size => {
             serde_json::json!({"drive": c.drive.label(), "after_loading_fraction": at(k), "after_unloading_fraction": at(k + 1), "tau2_s": c.tau2, "jump_after_loading_full_change": at(k) * span.abs(), "jump_after_unloading_full_change": at(k + 1) * span.abs()})
         }
+        Effect::SecondTimeConstant if c.drive == Drive::Through => serde_json::json!({"drive": c.drive.label(), "fraction": at(k), "tau2_s": c.tau2, "in_conductance": true}),
         Effect::SecondTimeConstant => serde_json::json!({"drive": c.drive.label(), "fraction": at(k), "tau2_s": c.tau2}),
         Effect::BaselineDrift => match c.drift_tau {
             Some(tau) => serde_json::json!({"form": "exponential warm-up", "initial_rate_per_s": at(k), "warmup_tau_s": tau, "amplitude": at(k) * tau}),

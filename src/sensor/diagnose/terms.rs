@@ -49,8 +49,11 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
     let (d, trials, hat, clip, clip_steps, tau2_scale) = (ctx.d, ctx.trials, ctx.hat, ctx.clip, ctx.clip_steps, ctx.tau2_scale);
     let cands: Vec<Config> = match e {
         Effect::RestRelaxation => nuisance::rest_candidates(d, trials, cur),
-        Effect::SecondTimeConstant => [Drive::Change, Drive::Size]
+        // with the change, its size, or the change of the conductance seen through the read-out
+        // (when every trial says how its response maps to the conductance)
+        Effect::SecondTimeConstant => [Drive::Change, Drive::Size, Drive::Through]
             .iter()
+            .filter(|&&drive| drive != Drive::Through || (!trials.is_empty() && trials.iter().all(|tr| tr.readout.is_some())))
             .flat_map(|&drive| TAU2_GRID.iter().map(move |m| (drive, m)))
             .map(|(drive, m)| {
                 let mut c = cur.clone();
@@ -383,6 +386,30 @@ mod tests {
             let c = candidate(Effect::Hysteresis, &b.base_cfg, &ctx).expect("a candidate");
             assert_eq!(c.hyst_through, in_g, "in the conductance: {in_g}");
             let other = Config { hyst_through: !in_g, ..c.clone() };
+            let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
+            let (o, _) = score(&b.d, &b.trials, &other, &b.hat).unwrap();
+            assert!(s.heldout_rmse < o.heldout_rmse, "in the conductance: {in_g}: held out {} in its form, {} in the other", s.heldout_rmse, o.heldout_rmse);
+        }
+    }
+
+    /// A second relaxation's form is chosen on the training fit: one of the sensor's conductance
+    /// (family B's form: the conductance is the mix of a fast and a slow relaxation toward the
+    /// target's conductance) is fitted through the read-out, and one of the response in the
+    /// response; each form chosen also predicts the held-out data better than the other form.
+    #[test]
+    fn a_second_relaxation_is_fitted_in_the_form_it_acts_in() {
+        for (k, in_g) in [false, true].into_iter().enumerate() {
+            let recs = fixture::recs(78_000 + 10 * k as u64, |s| {
+                s.effects.second_fraction = 0.1;
+                s.effects.second_tau_s = 30.0;
+                s.effects.second_in_conductance = in_g;
+            });
+            let b = fixture::built(&recs);
+            let steps = ClipSteps::of(&b.trials, clip_level(&b.trials), false);
+            let ctx = fixture::ctx(&b, &steps, &b.hat);
+            let c = candidate(Effect::SecondTimeConstant, &b.base_cfg, &ctx).expect("a candidate");
+            assert_eq!(c.drive == Drive::Through, in_g, "in the conductance: {in_g}: {:?}, τ2 {}", c.drive, c.tau2);
+            let other = Config { drive: if in_g { Drive::Change } else { Drive::Through }, ..c.clone() };
             let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
             let (o, _) = score(&b.d, &b.trials, &other, &b.hat).unwrap();
             assert!(s.heldout_rmse < o.heldout_rmse, "in the conductance: {in_g}: held out {} in its form, {} in the other", s.heldout_rmse, o.heldout_rmse);
