@@ -158,7 +158,9 @@ const B_FORMS_40: &str = "family B's forms under 5× the noise, touch + trial nu
 const B_FORMS_200: &str = "family B's forms under 5× the noise, touch + trial nuisances, 40 s holds, 200 g steps";
 const B_FORMS_40_HYST_G: &str = "the same (40 g) with family B's hysteresis: in the conductance, a 60 s memory";
 const B_FORMS_200_HYST_G: &str = "the same (200 g) with family B's hysteresis: in the conductance, a 60 s memory";
-const RAILS_BY_RMS: [&str; 10] = [
+const B_FORMS_40_SECOND_G: &str = "family B's forms with the second relaxation of the conductance, 40 g steps";
+const B_FORMS_200_SECOND_G: &str = "family B's forms with the second relaxation of the conductance, 200 g steps";
+const RAILS_BY_RMS: [&str; 12] = [
     RAIL_BY_RMS_40,
     RAIL_BY_RMS_200,
     RAIL_BY_RMS_40_LAB,
@@ -169,6 +171,8 @@ const RAILS_BY_RMS: [&str; 10] = [
     B_FORMS_200,
     B_FORMS_40_HYST_G,
     B_FORMS_200_HYST_G,
+    B_FORMS_40_SECOND_G,
+    B_FORMS_200_SECOND_G,
 ];
 /// The variation without a preload.
 const NO_PRELOAD: &str = "no preload: the zero-load level at the ADC's floor (0 V)";
@@ -450,6 +454,10 @@ fn main() {
         // peak's memory fades in 60 s
         (B_FORMS_40_HYST_G, b_forms_hysteresis_in_conductance(40.0)),
         (B_FORMS_200_HYST_G, b_forms_hysteresis_in_conductance(200.0)),
+        // the same with family B's form of a second relaxation (stop 50): a share of each change
+        // of the conductance relaxes with τ2, seen through the divider
+        (B_FORMS_40_SECOND_G, b_forms_second_in_conductance(40.0)),
+        (B_FORMS_200_SECOND_G, b_forms_second_in_conductance(200.0)),
     ];
     // TIPFORGE_DISCOVERY_VARIATION_SIGMA=3: the rows' effects at 3σ instead of 1σ (probes; a rail
     // whose height is not set by its RMS keeps its height)
@@ -597,6 +605,15 @@ fn b_forms_hysteresis_in_conductance(weight_g: f64) -> Box<dyn Fn(&mut SensorPar
         b_forms(weight_g)(s, p);
         s.effects.hysteresis_in_conductance = true;
         s.effects.hysteresis_memory_s = 60.0
+    })
+}
+
+/// [`b_forms`] with family B's second relaxation: a share of each change of the conductance
+/// relaxes with τ2, seen through the divider (`effects.second_time_constant.in_conductance`).
+fn b_forms_second_in_conductance(weight_g: f64) -> Box<dyn Fn(&mut SensorParams, &mut ProtocolParams)> {
+    Box::new(move |s, p| {
+        b_forms(weight_g)(s, p);
+        s.effects.second_in_conductance = true
     })
 }
 
