@@ -265,11 +265,8 @@ impl SensorParams {
             "in_conductance",
             "use true (the conductance keeps a share of the peak's force gap, seen through the read-out) or false (the response keeps a share of the peak's level)",
         );
-        let second_in_conductance = switch(
-            "second_time_constant",
-            "in_conductance",
-            "use true (the conductance relaxes a second time, seen through the read-out) or false (the response does)",
-        );
+        let second_in_conductance =
+            switch("second_time_constant", "in_conductance", "use true (the conductance relaxes a second time, seen through the read-out) or false (the response does)");
         let eff = Effects {
             second_in_conductance,
             saturation_before_noise: before_noise,

@@ -111,12 +111,6 @@ pub(super) fn change_z(clip: bool, before: &Score, after: &Score, clip_units: &[
         // a group where every unit halves its error passes at the level the groups are judged at
         let passing = if groups.len() > 1 { TWO_GROUP_Z } else { MIN_Z };
         let best = groups.iter().map(|g| paired_z_on(before, after, g, passing)).fold(f64::NEG_INFINITY, f64::max);
-        if std::env::var("TF_DBG").is_ok() {
-            for g in &groups {
-                let pick = |s: &Score| -> Vec<String> { s.unit_keys.iter().zip(&s.units).filter(|(k, _)| g.contains(k)).map(|(k, v)| format!("{k:?}:{v:.3e}")).collect() };
-                eprintln!("DBG clip group z={:.2} before {:?}\n   after {:?}", paired_z_on(before, after, g, passing), pick(before), pick(after));
-            }
-        }
         // the better of two groups is a second chance: Bonferroni's, the better z must reach the
         // one-sided level of MIN_Z halved (z 3.205 for 3.0), so it is scaled to be judged at MIN_Z
         if groups.len() > 1 {

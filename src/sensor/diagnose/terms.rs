@@ -53,7 +53,7 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
         // (when every trial says how its response maps to the conductance)
         Effect::SecondTimeConstant => [Drive::Change, Drive::Size, Drive::Through]
             .iter()
-            .filter(|&&drive| drive != Drive::Through || (std::env::var("TF_NO_THROUGH2").is_err() && through_known(trials)))
+            .filter(|&&drive| drive != Drive::Through || (through_known(trials)))
             .flat_map(|&drive| TAU2_GRID.iter().map(move |m| (drive, m)))
             .map(|(drive, m)| {
                 let mut c = cur.clone();
@@ -136,7 +136,7 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
         // out biases that choice too (family A's hysteresis with a second τ of the response: with
         // the hysteresis still out, the conductance's form took part of it, a drift and a rest
         // relaxation were named beside them and the hysteresis came out at 0.018 for 0.03)
-        if matches!(c.drive, Drive::Change | Drive::Through) && (c.drive == Drive::Through || through_known(trials)) && std::env::var("TF_NO_REFORM").is_err() {
+        if matches!(c.drive, Drive::Change | Drive::Through) && (c.drive == Drive::Through || through_known(trials)) {
             let other = Config { drive: if c.drive == Drive::Change { Drive::Through } else { Drive::Change }, ..c.clone() };
             if let Some((b, _)) = train_bic(d, trials, &other, hat) {
                 if b < b0 {
