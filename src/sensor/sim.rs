@@ -530,6 +530,36 @@ pub(crate) mod tests {
         assert!(err.contains("effects.hysteresis.in_conductance") && err.contains("use true"), "{err}");
     }
 
+    /// Family B's form of a second relaxation: the conductance, not the response, is the mix of a
+    /// fast and a slow relaxation. Late in the final rest (the fast part settled, the load
+    /// constant) the conductance's excess over G(F) decays by e^(−Δt/τ2) exactly, and near no load
+    /// the response lags far more than with the same share of the response's step; a value other
+    /// than a boolean is reported with its TOML path.
+    #[test]
+    fn a_conductance_second_relaxation_decays_in_the_conductance() {
+        let (mut s, p) = defaults();
+        s.noise_v = 0.0;
+        s.effects.second_fraction = 0.1;
+        s.effects.second_tau_s = 30.0;
+        let (_, in_v) = simulate(&s, &p, 20.0, None, 5);
+        s.effects.second_in_conductance = true;
+        let (_, in_g) = simulate(&s, &p, 20.0, None, 5);
+        let last = in_g.steps.last().unwrap();
+        let at = |dt: f64| ((last.t_land_s + dt) * s.circuit.sample_rate_hz).round() as usize;
+        let (k1, k2) = (at(3.0), at(8.0));
+        let g_f = s.conductance(last.force_after_n);
+        let ratio = |v: &[f64]| (s.conductance_of(v[k2]) - g_f) / (s.conductance_of(v[k1]) - g_f);
+        let want = (-5.0f64 / 30.0).exp();
+        assert!((ratio(&in_g.clean_v) / want - 1.0).abs() < 1e-3, "{} vs {want}", ratio(&in_g.clean_v));
+        // near no load a divider shows the conductance's lag in full: far more than the same share
+        // of the response's step
+        assert!(in_g.clean_v[k1] - in_v.clean_v[k1] > 0.01, "{} vs {}", in_g.clean_v[k1], in_v.clean_v[k1]);
+        assert!(s.conductance_of(in_g.clean_v[k1]) > g_f, "the slow share lags the unloading");
+        let bad = "[effects.second_time_constant]\nfraction = 0.1\nin_conductance = 1\n";
+        let err = SensorParams::from_source(&SourceFile::parse("s.toml", bad.to_string()).unwrap()).unwrap_err().to_string();
+        assert!(err.contains("effects.second_time_constant.in_conductance") && err.contains("use true"), "{err}");
+    }
+
     /// Rests of one sign: every trial starts raised by the size a two-signed draw gives (the same
     /// draws, so the two differ only in sign); and a value other than a boolean is reported with
     /// its TOML path.
