@@ -45,9 +45,10 @@ pub struct Effects {
     pub second_fraction: f64,
     pub second_tau_s: f64,
     /// The second relaxation is the sensor's conductance's, seen through the read-out (family B's
-    /// form): the conductance is the mix (1 − fraction) · G_fast + fraction · G_slow, G_slow
-    /// relaxing toward the conductance of the present target with `second_tau_s`; instead of the
-    /// response being that mix of two relaxations.
+    /// form): the conductance is the mix (1 − fraction) · G(v_fast) + fraction · G_slow, where
+    /// G(v_fast) is the conductance the divider shows at the fast part's response (relaxing in the
+    /// response at the first-order τ) and G_slow relaxes toward the present target's conductance
+    /// with `second_tau_s`; instead of the response being the mix of two relaxations.
     pub second_in_conductance: bool,
     /// Baseline drift: linear rate and a slow sinusoidal wander.
     pub drift_v_per_s: f64,

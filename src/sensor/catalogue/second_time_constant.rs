@@ -52,6 +52,12 @@ impl Drive {
     }
 }
 
+/// A step's share relaxing at τ2 instead of at its own τ, `since` seconds after its onset: the
+/// change's kernel, e^(−t/τ) − e^(−t/τ2) (0 before the onset).
+pub fn split(since: f64, tau_s: f64, tau2_s: f64) -> f64 {
+    super::decay(since / tau_s) - super::decay(since / tau2_s)
+}
+
 /// The term's columns at time t (`out` holds `drive.columns()` values), from the steps begun; the
 /// conductance's form (`Drive::Through`) needs the read-out and is the diagnosis's: here it is
 /// taken in the response, as `Drive::Change`.
@@ -59,7 +65,7 @@ pub fn columns(s: &impl Steps, active: &[usize], t: f64, tau2_s: f64, drive: Dri
     for &q in active {
         let since = super::since(t, s.t0(q));
         match drive {
-            Drive::Change | Drive::Through => out[0] += s.dv(q) * (super::decay(since / s.tau(q)) - super::decay(since / tau2_s)),
+            Drive::Change | Drive::Through => out[0] += s.dv(q) * split(since, s.tau(q), tau2_s),
             // the size drive holds |dv| over the half filtered span before the onset (its value at
             // the onset, as e^(half span/τ2) ≈ 1 gave before `since`); 0 there, as the spectrum's kernels
             // are, let a false 2 s second τ in on a creep (`tests/advice.rs`,

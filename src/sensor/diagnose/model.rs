@@ -557,13 +557,7 @@ impl TrialSteps<'_> {
     pub(super) fn second_through_column(&self, landed: &[usize], cur: usize, t: f64) -> f64 {
         let Some(ro) = self.tr.readout else { return 0.0 };
         let tau2 = self.cfg.tau2;
-        let in_u: f64 = landed
-            .iter()
-            .map(|&q| {
-                let since = catalogue::since(t, self.t0(q));
-                self.du(q).unwrap_or(0.0) * (catalogue::decay(since / self.tau(q)) - catalogue::decay(since / tau2))
-            })
-            .sum();
+        let in_u: f64 = landed.iter().map(|&q| self.du(q).unwrap_or(0.0) * catalogue::second_time_constant::split(catalogue::since(t, self.t0(q)), self.tau(q), tau2)).sum();
         ro.slope_du(self.first_order_at(cur, t)) * in_u
     }
     /// The step's change of the read-out's u (linear in the sensor's conductance), when the

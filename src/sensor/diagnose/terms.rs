@@ -44,7 +44,8 @@ pub(super) struct Ctx<'a> {
 
 /// The model `cur` with effect `e` added, its shape parameters chosen on the training fit (not on
 /// held-out data): the second relaxation's τ2 and drive on their grid, a clip at the recording's
-/// level, a rest relaxation's τ; a second relaxation already in the model has its τ2 refitted.
+/// level, a rest relaxation's τ; a second relaxation already in the model has its form (in the
+/// response or in the conductance) chosen again and its τ2 refitted.
 pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
     let (d, trials, hat, clip, clip_steps, tau2_scale) = (ctx.d, ctx.trials, ctx.hat, ctx.clip, ctx.clip_steps, ctx.tau2_scale);
     let cands: Vec<Config> = match e {
@@ -136,7 +137,7 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
         // out biases that choice too (family A's hysteresis with a second τ of the response: with
         // the hysteresis still out, the conductance's form took part of it, a drift and a rest
         // relaxation were named beside them and the hysteresis came out at 0.018 for 0.03)
-        if matches!(c.drive, Drive::Change | Drive::Through) && (c.drive == Drive::Through || through_known(trials)) {
+        if c.drive != Drive::Size && through_known(trials) {
             let other = Config { drive: if c.drive == Drive::Change { Drive::Through } else { Drive::Change }, ..c.clone() };
             if let Some((b, _)) = train_bic(d, trials, &other, hat) {
                 if b < b0 {
@@ -169,7 +170,7 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
 
 /// Whether every trial says how its response maps to the sensor's conductance (a read-out): the
 /// terms' conductance forms are offered only then.
-fn through_known(trials: &[Trial]) -> bool {
+pub(super) fn through_known(trials: &[Trial]) -> bool {
     !trials.is_empty() && trials.iter().all(|tr| tr.readout.is_some())
 }
 
@@ -304,6 +305,9 @@ pub(super) fn without(cur: &Config, idx: usize) -> Config {
     if e == Effect::Creep {
         c.creep = CreepForm::Restarting;
     }
+    if e == Effect::SecondTimeConstant {
+        c.drive = Drive::Change;
+    }
     c
 }
 
@@ -332,8 +336,8 @@ mod tests {
             }
             let back = without(&c, idx);
             assert_eq!(
-                (&back.effects, back.clip, &back.tau_fixed, &back.restart, back.rest_tau, back.drift_tau, back.hyst_memory_s, back.hyst_through),
-                (&base.effects, base.clip, &base.tau_fixed, &base.restart, base.rest_tau, base.drift_tau, base.hyst_memory_s, base.hyst_through),
+                (&back.effects, back.clip, &back.tau_fixed, &back.restart, back.rest_tau, back.drift_tau, back.hyst_memory_s, back.hyst_through, back.drive),
+                (&base.effects, base.clip, &base.tau_fixed, &base.restart, base.rest_tau, base.drift_tau, base.hyst_memory_s, base.hyst_through, base.drive),
                 "{e:?}"
             );
             assert_eq!((back.creep, back.clip_rail, back.rail_spans.len()), (CreepForm::Restarting, false, 0), "{e:?}");

@@ -23,7 +23,7 @@ const SLOW: [Effect; 3] = [Effect::Creep, Effect::SecondTimeConstant, Effect::Ba
 /// The best model with the conductance's creep in place of a subset of the slow terms in `cur`
 /// (scored, solved, and the effects it replaced), when every trial's read-out is known.
 fn best_in_place(d: &Design, trials: &[Trial], hat: &Hat, cur: &Config) -> Option<(Config, Score, Vec<f64>, Vec<Effect>)> {
-    if d.prior || trials.is_empty() || !trials.iter().all(|tr| tr.readout.is_some()) {
+    if d.prior || !through_known(trials) {
         return None;
     }
     let present: Vec<Effect> = SLOW.into_iter().filter(|e| cur.effects.contains(e)).collect();
