@@ -129,43 +129,47 @@ pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
             }
         }
     }
-    let (mut c, mut b0) = pick?;
-    // a second relaxation already in the model: its τ2 is refitted with the new term (a
-    // term left out biases it — drift lengthens τ2), by a local search on the grid
-    if e != Effect::SecondTimeConstant && c.effects.contains(&Effect::SecondTimeConstant) {
-        // and its form (in the response or in the conductance through the read-out): a term left
-        // out biases that choice too (family A's hysteresis with a second τ of the response: with
-        // the hysteresis still out, the conductance's form took part of it, a drift and a rest
-        // relaxation were named beside them and the hysteresis came out at 0.018 for 0.03)
-        if c.drive != Drive::Size && through_known(trials) {
-            let other = Config { drive: if c.drive == Drive::Change { Drive::Through } else { Drive::Change }, ..c.clone() };
-            if let Some((b, _)) = train_bic(d, trials, &other, hat) {
-                if b < b0 {
-                    (c, b0) = (other, b);
-                }
-            }
-        }
-        loop {
-            let mut moved = false;
-            for f in [1.0 / TAU2_STEP, TAU2_STEP] {
-                let mut cand = c.clone();
-                cand.tau2 *= f;
-                if cand.tau2 < TAU2_GRID[0] * tau2_scale * 0.99 || cand.tau2 > TAU2_GRID[TAU2_GRID.len() - 1] * tau2_scale * 1.01 {
-                    continue;
-                }
-                if let Some((b, _)) = train_bic(d, trials, &cand, hat) {
-                    if b < b0 {
-                        (c, b0, moved) = (cand, b, true);
-                        break;
-                    }
-                }
-            }
-            if !moved {
-                break;
+    let (c, b0) = pick?;
+    // a second relaxation already in the model: its form and τ2 are chosen again with the new term
+    Some(if e != Effect::SecondTimeConstant && c.effects.contains(&Effect::SecondTimeConstant) { refit_second(ctx, c, b0) } else { c })
+}
+
+/// A second relaxation already in the model `c` (training BIC `b0`), refitted with a term just
+/// added: its τ2 (a term left out biases it — drift lengthens τ2) by a local search on the grid,
+/// and first its form (in the response or in the conductance through the read-out): a term left
+/// out biases that choice too (family A's hysteresis with a second τ of the response: with the
+/// hysteresis still out, the conductance's form took part of it, a drift and a rest relaxation
+/// were named beside them and the hysteresis came out at 0.018 for 0.03).
+fn refit_second(ctx: &Ctx, mut c: Config, mut b0: f64) -> Config {
+    let (d, trials, hat, tau2_scale) = (ctx.d, ctx.trials, ctx.hat, ctx.tau2_scale);
+    if c.drive != Drive::Size && through_known(trials) {
+        let other = Config { drive: if c.drive == Drive::Change { Drive::Through } else { Drive::Change }, ..c.clone() };
+        if let Some((b, _)) = train_bic(d, trials, &other, hat) {
+            if b < b0 {
+                (c, b0) = (other, b);
             }
         }
     }
-    Some(c)
+    loop {
+        let mut moved = false;
+        for f in [1.0 / TAU2_STEP, TAU2_STEP] {
+            let mut cand = c.clone();
+            cand.tau2 *= f;
+            if cand.tau2 < TAU2_GRID[0] * tau2_scale * 0.99 || cand.tau2 > TAU2_GRID[TAU2_GRID.len() - 1] * tau2_scale * 1.01 {
+                continue;
+            }
+            if let Some((b, _)) = train_bic(d, trials, &cand, hat) {
+                if b < b0 {
+                    (c, b0, moved) = (cand, b, true);
+                    break;
+                }
+            }
+        }
+        if !moved {
+            break;
+        }
+    }
+    c
 }
 
 /// Whether every trial says how its response maps to the sensor's conductance (a read-out): the
