@@ -394,6 +394,19 @@ mod tests {
         }
     }
 
+    /// The candidate of effect `e` on family A's simulator (seed, the sensor as `set` makes it) and,
+    /// for the form the candidate chose and `other` (the same candidate in the other form), their
+    /// held-out RMSE.
+    fn chosen_form(seed: u64, e: Effect, set: impl Fn(&mut crate::params::sensor::SensorParams), other: impl Fn(&Config) -> Config) -> (Config, f64, f64) {
+        let b = fixture::built(&fixture::recs(seed, set));
+        let steps = ClipSteps::of(&b.trials, clip_level(&b.trials), false);
+        let ctx = fixture::ctx(&b, &steps, &b.hat);
+        let c = candidate(e, &b.base_cfg, &ctx).expect("a candidate");
+        let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
+        let (o, _) = score(&b.d, &b.trials, &other(&c), &b.hat).unwrap();
+        (c, s.heldout_rmse, o.heldout_rmse)
+    }
+
     /// A hysteresis's form is chosen on the training fit: a hysteresis of the sensor's
     /// conductance (family B's form: on the unloading branch the conductance gains
     /// h · (F_max − F) / 1 N · g_ref) is fitted through the read-out, and one that keeps a share
@@ -402,19 +415,13 @@ mod tests {
     #[test]
     fn a_hysteresis_is_fitted_in_the_form_it_acts_in() {
         for (k, in_g) in [false, true].into_iter().enumerate() {
-            let recs = fixture::recs(77_000 + 10 * k as u64, |s| {
+            let set = |s: &mut crate::params::sensor::SensorParams| {
                 s.effects.hysteresis = 0.01;
                 s.effects.hysteresis_in_conductance = in_g;
-            });
-            let b = fixture::built(&recs);
-            let steps = ClipSteps::of(&b.trials, clip_level(&b.trials), false);
-            let ctx = fixture::ctx(&b, &steps, &b.hat);
-            let c = candidate(Effect::Hysteresis, &b.base_cfg, &ctx).expect("a candidate");
+            };
+            let (c, s, o) = chosen_form(77_000 + 10 * k as u64, Effect::Hysteresis, set, |c| Config { hyst_through: !c.hyst_through, ..c.clone() });
             assert_eq!(c.hyst_through, in_g, "in the conductance: {in_g}");
-            let other = Config { hyst_through: !in_g, ..c.clone() };
-            let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
-            let (o, _) = score(&b.d, &b.trials, &other, &b.hat).unwrap();
-            assert!(s.heldout_rmse < o.heldout_rmse, "in the conductance: {in_g}: held out {} in its form, {} in the other", s.heldout_rmse, o.heldout_rmse);
+            assert!(s < o, "in the conductance: {in_g}: held out {s} in its form, {o} in the other");
         }
     }
 
@@ -425,20 +432,15 @@ mod tests {
     #[test]
     fn a_second_relaxation_is_fitted_in_the_form_it_acts_in() {
         for (k, in_g) in [false, true].into_iter().enumerate() {
-            let recs = fixture::recs(78_000 + 10 * k as u64, |s| {
+            let set = |s: &mut crate::params::sensor::SensorParams| {
                 s.effects.second_fraction = 0.1;
                 s.effects.second_tau_s = 30.0;
                 s.effects.second_in_conductance = in_g;
-            });
-            let b = fixture::built(&recs);
-            let steps = ClipSteps::of(&b.trials, clip_level(&b.trials), false);
-            let ctx = fixture::ctx(&b, &steps, &b.hat);
-            let c = candidate(Effect::SecondTimeConstant, &b.base_cfg, &ctx).expect("a candidate");
+            };
+            let flip = |c: &Config| Config { drive: if c.drive == Drive::Through { Drive::Change } else { Drive::Through }, ..c.clone() };
+            let (c, s, o) = chosen_form(78_000 + 10 * k as u64, Effect::SecondTimeConstant, set, flip);
             assert_eq!(c.drive == Drive::Through, in_g, "in the conductance: {in_g}: {:?}, τ2 {}", c.drive, c.tau2);
-            let other = Config { drive: if in_g { Drive::Change } else { Drive::Through }, ..c.clone() };
-            let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
-            let (o, _) = score(&b.d, &b.trials, &other, &b.hat).unwrap();
-            assert!(s.heldout_rmse < o.heldout_rmse, "in the conductance: {in_g}: held out {} in its form, {} in the other", s.heldout_rmse, o.heldout_rmse);
+            assert!(s < o, "in the conductance: {in_g}: held out {s} in its form, {o} in the other");
         }
     }
 }
