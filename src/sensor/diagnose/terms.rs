@@ -45,7 +45,7 @@ pub(super) struct Ctx<'a> {
 /// The model `cur` with effect `e` added, its shape parameters chosen on the training fit (not on
 /// held-out data): the second relaxation's τ2 and drive on their grid, a clip at the recording's
 /// level, a rest relaxation's τ; a second relaxation already in the model has its form (in the
-/// response or in the conductance) chosen again and its τ2 refitted.
+/// response or in the conductance) and τ2 chosen again, jointly with the new term's shape.
 pub(super) fn candidate(e: Effect, cur: &Config, ctx: &Ctx) -> Option<Config> {
     let (d, trials, hat, clip, clip_steps, tau2_scale) = (ctx.d, ctx.trials, ctx.hat, ctx.clip, ctx.clip_steps, ctx.tau2_scale);
     let cands: Vec<Config> = match e {
