@@ -425,7 +425,15 @@ mod tests {
         let c = candidate(named, &b.base_cfg, &ctx).expect("a candidate");
         let (s, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
         let other = if named == Effect::Creep { Effect::Hysteresis } else { Effect::Creep };
-        let alt = Alternative { effect: other.name(), heldout_rmse: 0.0, z_named_over_this: 0.0, gain_over_named: 0.0, params: serde_json::json!({}), unit_sd_per_sample: 0.0, first_order: (vec![], vec![]) };
+        let alt = Alternative {
+            effect: other.name(),
+            heldout_rmse: 0.0,
+            z_named_over_this: 0.0,
+            gain_over_named: 0.0,
+            params: serde_json::json!({}),
+            unit_sd_per_sample: 0.0,
+            first_order: (vec![], vec![]),
+        };
         on_loading_branch(&c, &s, &[(named, vec![alt], None)], &ctx).map(|(_, b)| (b.effect, b.z))
     }
 
