@@ -214,9 +214,9 @@ fn tau_line_nonneg(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
     if pts.is_empty() {
         return None;
     }
-    let mut taus: Vec<f64> = pts.iter().map(|p| p.1).collect();
+    let mut taus: Vec<f64> = pts.iter().map(|p| p.1).filter(|t| t.is_finite()).collect();
     let med = crate::sensor::preprocess::median(&mut taus);
-    let kept: Vec<(f64, f64)> = pts.iter().copied().filter(|p| p.1 <= TAU_OUTLIER * med || p.1.is_nan()).collect();
+    let kept: Vec<(f64, f64)> = pts.iter().copied().filter(|p| p.1 <= TAU_OUTLIER * med).collect();
     let pts = if kept.len() >= 2 { kept.as_slice() } else { pts };
     let (x, y): (Vec<f64>, Vec<f64>) = pts.iter().copied().unzip();
     let (b, a, _) = fashion::line(&x, &y);

@@ -243,25 +243,33 @@ pub(super) fn settled(cur: &Config, alts: &[(Effect, Vec<Alternative>, Option<Be
     None
 }
 
-/// A hysteresis that this recording cannot tell from creep (creep its alternative): the name goes
-/// to what the virgin loading branch shows. A hysteresis, permanent or with a fading memory, acts
-/// only below the highest load so far (the unloading branch sits toward the peak's level); on a hold
-/// at a new highest load it leaves the response alone. Creep acts after every change, loading or
-/// not. So where creep, fitted in the hysteresis's place, predicts the held-out holds at new highest
-/// loads better by a paired z of Z_SEPARATE, the rise they show is not a hysteresis's, and creep
-/// takes the name. (Not the other way round: a creep named in its restarting form, on a creep of
-/// the conductance, predicts those holds worse than a hysteresis does, by a paired z of 7.0; how
-/// well a creep fits the loading holds depends on its form, a hysteresis's absence there does not.)
-/// The finding to rename and the model with creep in its place.
-pub(super) fn on_loading_branch(cur: &Config, cur_score: &Score, alts: &[(Effect, Vec<Alternative>, Option<Better>)], ctx: &Ctx) -> Option<(Effect, Better)> {
-    // units are (trial, segment) only when the holds are not cut into blocks
-    if cur_score.blocks > 0 {
+/// A hysteresis or a drift that this recording cannot tell from creep (creep its alternative): the
+/// name goes to what the holds where their physics differ show.
+/// - A hysteresis, permanent or with a fading memory, acts only below the highest load so far (the
+///   unloading branch sits toward the peak's level); on a hold at a new highest load (the virgin
+///   loading branch) it leaves the response alone, where creep goes on after every change.
+/// - A drift is load-independent: after a removal it keeps its course, where creep turns with the
+///   change and the level falls back.
+///
+/// So where creep, fitted in the named one's place, predicts those held-out holds better by a
+/// paired z of Z_SEPARATE, creep takes the name. (Not the other way round: a creep named in its
+/// restarting form, on a creep of the conductance, predicts the virgin loading holds worse than a
+/// hysteresis does, by a paired z of 7.0; how well a creep fits them depends on its form.) The
+/// finding to rename and the model with creep in its place.
+pub(super) fn where_they_differ(cur: &Config, cur_score: &Score, alts: &[(Effect, Vec<Alternative>, Option<Better>)], ctx: &Ctx) -> Option<(Effect, Better)> {
+    // units are (trial, segment counted from 1 at the first onset) only with two trials or more
+    // (one trial is scored by blocks of its holds, or by leaving out steps counted from 0)
+    if cur_score.blocks > 0 || ctx.trials.len() < 2 {
         return None;
     }
-    let keys = virgin_loading_units(ctx.trials);
     for (named, list, _) in alts {
         let other = Effect::Creep;
-        if *named != Effect::Hysteresis || !list.iter().any(|a| a.effect == other.name()) {
+        let keys = match named {
+            Effect::Hysteresis => virgin_loading_units(ctx.trials),
+            Effect::BaselineDrift => removal_units(ctx.trials),
+            _ => continue,
+        };
+        if !list.iter().any(|a| a.effect == other.name()) {
             continue;
         }
         let idx = cur.effects.iter().position(|e| e == named)?;
@@ -289,6 +297,11 @@ pub(super) fn virgin_loading_units(trials: &[Trial]) -> Vec<(usize, usize)> {
         }
     }
     keys
+}
+
+/// The held-out units (trial, segment) of the holds after a load is lifted.
+pub(super) fn removal_units(trials: &[Trial]) -> Vec<(usize, usize)> {
+    trials.iter().enumerate().flat_map(|(k, tr)| tr.segs.iter().enumerate().filter(|(_, s)| s.load < s.prev).map(move |(q, _)| (k, q + 1))).collect()
 }
 
 /// The paired z by which `after` predicts the held-out units `keys` better than `before` (0 with
@@ -416,7 +429,7 @@ mod tests {
         assert_eq!(keys2.len(), 5, "{keys2:?}");
     }
 
-    /// The name `on_loading_branch` gives when `named` (its candidate on the baseline) has the other
+    /// The name `where_they_differ` gives when `named` (its candidate on the baseline) has the other
     /// of hysteresis and creep as its alternative, on `recs`, and its z; None: the name stays.
     fn loading_branch_pick(recs: &[Recording], named: Effect) -> Option<(Effect, f64)> {
         let b = fixture::built(recs);
@@ -434,7 +447,7 @@ mod tests {
             unit_sd_per_sample: 0.0,
             first_order: (vec![], vec![]),
         };
-        on_loading_branch(&c, &s, &[(named, vec![alt], None)], &ctx).map(|(_, b)| (b.effect, b.z))
+        where_they_differ(&c, &s, &[(named, vec![alt], None)], &ctx).map(|(_, b)| (b.effect, b.z))
     }
 
     /// Hysteresis or creep, named by the virgin loading branch (family A's simulator, seeds 93 100–
@@ -458,6 +471,24 @@ mod tests {
         for recs in [&creep, &hyst] {
             assert_eq!(loading_branch_pick(recs, Effect::Creep), None);
         }
+    }
+
+    /// A drift or creep, named by the holds after the removals (family A's simulator, seeds
+    /// 93 400–93 602): a creep of the conductance carried over the load history, taken as a drift,
+    /// is renamed creep, since after each removal the level falls back, where a drift keeps its
+    /// course; a linear drift and a warm-up keep their name.
+    #[test]
+    fn a_drift_or_creep_is_named_by_the_holds_after_the_removals() {
+        let creep = fixture::recs(93_400, |s| {
+            s.effects.creep_per_decade = 0.005;
+            s.effects.creep_superposed = true;
+            s.effects.creep_in_conductance = true;
+        });
+        let linear = fixture::recs(93_500, |s| s.effects.drift_v_per_s = 3e-5);
+        let warmup = fixture::recs(93_600, |s| (s.effects.drift_v_per_s, s.effects.drift_warmup_tau_s) = (6e-5, 100.0));
+        assert_eq!(loading_branch_pick(&creep, Effect::BaselineDrift).map(|x| x.0), Some(Effect::Creep), "creep taken as a drift");
+        assert_eq!(loading_branch_pick(&linear, Effect::BaselineDrift), None, "linear drift");
+        assert_eq!(loading_branch_pick(&warmup, Effect::BaselineDrift), None, "warm-up");
     }
 
     #[test]

@@ -245,8 +245,9 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         // creep or a second relaxation, which this recording cannot tell apart: what the holds show
         // (once: the other's τ2, fitted in its place, may move with the swap)
         let settled = if swap.is_none() && merged.is_none() && !settled_once { alternatives::settled(&cur, &alts, &actx) } else { None };
-        // hysteresis or creep: what the virgin loading branch shows (once, as the above)
-        let settled = settled.or_else(|| if swap.is_none() && merged.is_none() && !settled_once { alternatives::on_loading_branch(&cur, &cur_score, &alts, &actx) } else { None });
+        // a hysteresis or a drift, or creep: what the holds where their physics differ show (the
+        // virgin loading branch; the holds after removals), once, as the above
+        let settled = settled.or_else(|| if swap.is_none() && merged.is_none() && !settled_once { alternatives::where_they_differ(&cur, &cur_score, &alts, &actx) } else { None });
         settled_once |= settled.is_some();
         let change = match (swap, &merged, &settled) {
             (Some((named, b)), _, _) => Some((vec![named], b)),
