@@ -450,24 +450,29 @@ mod tests {
         where_they_differ(&c, &s, &[(named, vec![alt], None)], &ctx).map(|(_, b)| (b.effect, b.z))
     }
 
+    /// Three trials of family A with a creep of the conductance superposed over the load history.
+    fn conductance_creep(seed: u64, per_decade: f64) -> Vec<Recording> {
+        fixture::recs(seed, |s| {
+            s.effects.creep_per_decade = per_decade;
+            s.effects.creep_superposed = true;
+            s.effects.creep_in_conductance = true;
+        })
+    }
+
     /// Hysteresis or creep, named by the virgin loading branch (family A's simulator, seeds 93 100–
     /// 93 302): a creep of the conductance carried over the load history, taken as a hysteresis
     /// (both raise the unloading branch), is renamed creep, since its loading holds rise too (paired
     /// z 10.8 there); a hysteresis, permanent or fading in 120 s, stays one.
     #[test]
     fn hysteresis_or_creep_is_named_by_the_virgin_loading_branch() {
-        let creep = fixture::recs(93_100, |s| {
-            s.effects.creep_per_decade = 0.01;
-            s.effects.creep_superposed = true;
-            s.effects.creep_in_conductance = true;
-        });
+        let creep = conductance_creep(93_100, 0.01);
         let hyst = fixture::recs(93_200, |s| s.effects.hysteresis = 0.03);
         let faded = fixture::recs(93_300, |s| (s.effects.hysteresis, s.effects.hysteresis_memory_s) = (0.03, 120.0));
         assert_eq!(loading_branch_pick(&creep, Effect::Hysteresis).map(|x| x.0), Some(Effect::Creep), "creep taken as a hysteresis");
         for (name, recs) in [("hysteresis", &hyst), ("fading hysteresis", &faded)] {
             assert_eq!(loading_branch_pick(recs, Effect::Hysteresis), None, "{name}");
         }
-        // one way only: a named creep keeps its name
+        // one way only: a named creep keeps its name (guards against a reverse rule)
         for recs in [&creep, &hyst] {
             assert_eq!(loading_branch_pick(recs, Effect::Creep), None);
         }
@@ -479,11 +484,7 @@ mod tests {
     /// course; a linear drift and a warm-up keep their name.
     #[test]
     fn a_drift_or_creep_is_named_by_the_holds_after_the_removals() {
-        let creep = fixture::recs(93_400, |s| {
-            s.effects.creep_per_decade = 0.005;
-            s.effects.creep_superposed = true;
-            s.effects.creep_in_conductance = true;
-        });
+        let creep = conductance_creep(93_400, 0.005);
         let linear = fixture::recs(93_500, |s| s.effects.drift_v_per_s = 3e-5);
         let warmup = fixture::recs(93_600, |s| (s.effects.drift_v_per_s, s.effects.drift_warmup_tau_s) = (6e-5, 100.0));
         assert_eq!(loading_branch_pick(&creep, Effect::BaselineDrift).map(|x| x.0), Some(Effect::Creep), "creep taken as a drift");
