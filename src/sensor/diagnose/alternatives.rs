@@ -262,18 +262,15 @@ pub(super) fn where_they_differ(cur: &Config, cur_score: &Score, alts: &[(Effect
     if cur_score.blocks > 0 || ctx.trials.len() < 2 {
         return None;
     }
+    let other = Effect::Creep;
     for (named, list, _) in alts {
-        let other = Effect::Creep;
         let keys = match named {
             Effect::Hysteresis => virgin_loading_units(ctx.trials),
             Effect::BaselineDrift => removal_units(ctx.trials),
             _ => continue,
         };
-        if !list.iter().any(|a| a.effect == other.name()) {
-            continue;
-        }
-        let idx = cur.effects.iter().position(|e| e == named)?;
-        let (c, s, x) = in_place(other, &without(cur, idx), ctx)?;
+        let Some(idx) = cur.effects.iter().position(|e| e == named).filter(|_| list.iter().any(|a| a.effect == other.name())) else { continue };
+        let Some((c, s, x)) = in_place(other, &without(cur, idx), ctx) else { continue };
         let z = z_on_units(cur_score, &s, &keys);
         if z >= Z_SEPARATE {
             return Some((*named, Better { effect: other, cfg: c, score: s, x, z }));
@@ -307,12 +304,10 @@ pub(super) fn removal_units(trials: &[Trial]) -> Vec<(usize, usize)> {
 /// The paired z by which `after` predicts the held-out units `keys` better than `before` (0 with
 /// fewer than three of them).
 fn z_on_units(before: &Score, after: &Score, keys: &[(usize, usize)]) -> f64 {
-    let pick = |s: &Score| -> Vec<(usize, usize, f64)> { s.unit_keys.iter().zip(&s.units).filter(|(k, _)| keys.contains(k)).map(|(k, v)| (k.0, k.1, *v)).collect() };
-    let (b, a) = (pick(before), pick(after));
-    if b.len() < 3 || b.len() != a.len() || b.iter().zip(&a).any(|(x, y)| (x.0, x.1) != (y.0, y.1)) {
+    let (b, a) = (units_on(before, keys), units_on(after, keys));
+    if b.len() < 3 || b.len() != a.len() {
         return 0.0;
     }
-    let (b, a): (Vec<f64>, Vec<f64>) = (b.iter().map(|x| x.2).collect(), a.iter().map(|x| x.2).collect());
     paired_z(&b, &a)
 }
 

@@ -142,8 +142,7 @@ pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]
     if only.is_empty() {
         return paired_z(&before.units, &after.units);
     }
-    let pick = |s: &Score| -> Vec<f64> { s.unit_keys.iter().zip(&s.units).filter(|(k, _)| only.contains(k)).map(|(_, v)| *v).collect() };
-    let (b, a) = (pick(before), pick(after));
+    let (b, a) = (units_on(before, only), units_on(after, only));
     let halves = !b.is_empty() && b.len() == a.len() && b.iter().zip(&a).all(|(x, y)| *x > 0.0 && *y <= 0.5 * x);
     let z = if b.len() < 3 { 0.0 } else { paired_z(&b, &a) };
     if halves && !rank_can_reach(b.len(), passing) {
@@ -151,6 +150,11 @@ pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]
     } else {
         z
     }
+}
+
+/// A score's held-out units (squared errors) whose (trial, segment) is among `only`, in its order.
+pub(super) fn units_on(s: &Score, only: &[(usize, usize)]) -> Vec<f64> {
+    s.unit_keys.iter().zip(&s.units).filter(|(k, _)| only.contains(k)).map(|(_, v)| *v).collect()
 }
 
 /// Whether effect `e`'s fitted term in the model `c` (solution `x`) has its physics' sign: creep

@@ -244,10 +244,13 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         let merged = if swap.is_none() { alternatives::merged(&cur, &cur_score, &actx) } else { None };
         // creep or a second relaxation, which this recording cannot tell apart: what the holds show
         // (once: the other's τ2, fitted in its place, may move with the swap)
-        let settled = if swap.is_none() && merged.is_none() && !settled_once { alternatives::settled(&cur, &alts, &actx) } else { None };
-        // a hysteresis or a drift, or creep: what the holds where their physics differ show (the
-        // virgin loading branch; the holds after removals), once, as the above
-        let settled = settled.or_else(|| if swap.is_none() && merged.is_none() && !settled_once { alternatives::where_they_differ(&cur, &cur_score, &alts, &actx) } else { None });
+        // and a hysteresis or a drift, or creep: what the holds where their physics differ show
+        // (the virgin loading branch; the holds after removals), once, as the above
+        let settled = if swap.is_none() && merged.is_none() && !settled_once {
+            alternatives::settled(&cur, &alts, &actx).or_else(|| alternatives::where_they_differ(&cur, &cur_score, &alts, &actx))
+        } else {
+            None
+        };
         settled_once |= settled.is_some();
         let change = match (swap, &merged, &settled) {
             (Some((named, b)), _, _) => Some((vec![named], b)),
