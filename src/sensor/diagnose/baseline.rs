@@ -6,7 +6,8 @@ use crate::sensor::preprocess::Ramp;
 
 pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Options) -> Vec<Trial> {
     let ramp = opts.pre.ramp.filter(|r| r.duration_s > 0.0);
-    let typical = typical_step(report);
+    let lead_s = onset_bound(recs) + ramp.map_or(0.0, |r| r.duration_s);
+    let typical = typical_step(report, lead_s);
     let mut out = Vec::new();
     for (ri, rec) in recs.iter().enumerate() {
         let block = analyze::filter_block(rec, opts);
@@ -18,15 +19,25 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
             let Some(f) = sr.lsq.as_ref() else { continue };
             let q = f.trials.iter().position(|tp| tp.recording == rec.source);
             let mut t0 = q.map(|q| f.trials[q].t0).unwrap_or(st.t_log);
-            let mut tau = f.tau_s;
+            // an onset the step's fit puts before the logged change's lead (and its ramp) in any
+            // trial that is no jump: its τ, which the data do not determine, describes the slow
+            // course of the hold, not the step (family A, a fading hysteresis: an unloading step's
+            // τ 256 s ± 345 s put its onset 144 s back, into the step before). The step takes the
+            // recording's other steps' τ and, without a ramp, starts where they start, in every
+            // trial (a τ of its own in some trials would give its level from a curve that never
+            // nears it)
+            let jump = q.and_then(|q| sr.jumps.get(q).copied().flatten());
+            let far = typical.filter(|_| far_back(sr, f, lead_s));
+            let mut tau = far.map_or(f.tau_s, |(tau_med, _)| tau_med);
             // a ramped load: the step's onset is the ramp's end, where the data set's ramp puts it;
             // its duration is the step's own (an actuator's travel differs from step to step)
             let mut input = LoadIn::default();
             if let Some(r) = ramp {
-                // a trial without its own part-1 fit of this step keeps the data set's ramp
+                // a trial without its own part-1 fit of this step (or with one whose onset is
+                // too far back) keeps the data set's ramp
                 t0 = st.t_log + r.end_after_log_s;
                 input = LoadIn { ramp_s: r.duration_s, smooth: r.smooth, curve: 0.0 };
-                if let Some(q) = q {
+                if let (Some(q), None) = (q, far) {
                     let prev_end_s =
                         prep.steps[ri].iter().filter(|p| p.t_log < st.t_log).map(|p| p.t_log + r.end_after_log_s).fold(series.t.first().copied().unwrap_or(0.0), f64::max);
                     let next_start_s = prep.steps[ri].iter().filter(|p| p.t_log > st.t_log).map(|p| p.t_log + r.end_after_log_s - r.duration_s).fold(f64::INFINITY, f64::min);
@@ -35,19 +46,11 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
             }
             // a jump within one sample (fit::jump_time) is modelled as one; the creep or
             // relaxation after it is the diagnosis's
-            if let Some(tj) = q.and_then(|q| sr.jumps.get(q).copied().flatten()) {
+            if let Some(tj) = jump {
                 t0 = tj;
                 tau = crate::sensor::fit::JUMP_TAU_SHARE / rec.sample_rate_hz();
-            } else if let (Some(tp), None, Some((tau_med, lead_med))) = (q.map(|q| &f.trials[q]), ramp, typical) {
-                // an onset the step's fit puts before the logged change's lead: its τ, which the
-                // data do not determine, describes the slow course of the hold, not the step
-                // (family A, a fading hysteresis: an unloading step's τ 256 s ± 345 s put its
-                // onset 144 s back, into the step before). The step starts where the recording's
-                // other steps do, with their τ.
-                if tp.t0 < tp.t_on - onset_bound(rec) {
-                    t0 = tp.t_on + lead_med;
-                    tau = tau_med;
-                }
+            } else if let (Some(q), None, Some((_, lead_med))) = (q, ramp, far) {
+                t0 = f.trials[q].t_on + lead_med;
             }
             segs.push(Seg { key, t0, load: st.after, prev: st.before, tau, phase: st.phase, t_log: st.t_log, input, sim: None });
         }
@@ -71,17 +74,24 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
 }
 
 /// How far before the detected onset a step's fitted curve may begin
-/// (`fit::ONSET_LEAD_S`, at least five samples).
-fn onset_bound(rec: &Recording) -> f64 {
-    crate::sensor::fit::ONSET_LEAD_S.max(5.0 / rec.sample_rate_hz())
+/// (`fit::ONSET_LEAD_S`, at least five samples of the slowest recording).
+fn onset_bound(recs: &[Recording]) -> f64 {
+    recs.iter().map(|r| 5.0 / r.sample_rate_hz()).fold(crate::sensor::fit::ONSET_LEAD_S, f64::max)
+}
+
+/// Whether the step's part-1 fit `f` puts a trial's onset, where that trial's step is no jump,
+/// more than `lead_s` before its detected onset.
+fn far_back(sr: &analyze::StepReport, f: &crate::sensor::fit::StepFit, lead_s: f64) -> bool {
+    f.trials.iter().enumerate().any(|(q, tp)| sr.jumps.get(q).copied().flatten().is_none() && tp.t0 < tp.t_on - lead_s)
 }
 
 /// The median τ and the median onset after the detected one (t0 − t_on, ≤ 0) of the part-1 step
-/// fits whose onsets all lie within the bound; None when no step's do.
-fn typical_step(report: &Report) -> Option<(f64, f64)> {
+/// fits whose onsets all lie within `lead_s` of the detected ones (the bound and the load's ramp);
+/// None when no step's do.
+fn typical_step(report: &Report, lead_s: f64) -> Option<(f64, f64)> {
     let (mut taus, mut leads) = (Vec::new(), Vec::new());
     for f in report.steps.iter().filter_map(|s| s.lsq.as_ref()) {
-        if f.trials.iter().all(|tp| tp.t0 >= tp.t_on - crate::sensor::fit::ONSET_LEAD_S) && f.tau_s.is_finite() {
+        if f.trials.iter().all(|tp| tp.t0 >= tp.t_on - lead_s) && f.tau_s.is_finite() {
             taus.push(f.tau_s);
             leads.extend(f.trials.iter().map(|tp| tp.t0 - tp.t_on));
         }
@@ -428,7 +438,7 @@ mod tests {
             }
         }
         let b = fixture::built(&recs);
-        let bound = onset_bound(&recs[0]);
+        let bound = onset_bound(&recs);
         let far: Vec<(usize, f64)> = b
             .report
             .steps
@@ -439,7 +449,7 @@ mod tests {
             .filter(|&(_, lead)| lead < -bound)
             .collect();
         assert!(!far.is_empty(), "the case has no step fitted with an onset beyond the bound");
-        let (tau_med, lead_med) = typical_step(&b.report).expect("steps within the bound");
+        let (tau_med, lead_med) = typical_step(&b.report, bound).expect("steps within the bound");
         for tr in &b.trials {
             for sg in &tr.segs {
                 let sr = &b.report.steps[sg.key];
@@ -447,7 +457,7 @@ mod tests {
                 let q = f.trials.iter().position(|tp| tp.recording == tr.name).unwrap();
                 let tp = &f.trials[q];
                 assert!(sg.t0 >= tp.t_on - bound, "{}: a step at {} s starts at {} s", tr.name, sg.t_log, sg.t0);
-                if tp.t0 < tp.t_on - bound && sr.jumps[q].is_none() {
+                if far_back(sr, f, bound) && sr.jumps[q].is_none() {
                     assert!((sg.t0 - tp.t_on - lead_med).abs() < 1e-9 && sg.tau == tau_med, "{}: {} s, τ {} s", tr.name, sg.t0, sg.tau);
                 }
             }
