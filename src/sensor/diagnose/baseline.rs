@@ -23,9 +23,9 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
             // trial that is no jump: its τ, which the data do not determine, describes the slow
             // course of the hold, not the step (family A, a fading hysteresis: an unloading step's
             // τ 256 s ± 345 s put its onset 144 s back, into the step before). The step takes the
-            // recording's other steps' τ and, without a ramp, starts where they start, in every
-            // trial (a τ of its own in some trials would give its level from a curve that never
-            // nears it)
+            // data set's other steps' τ (a starting value: the models refit it) and, without a
+            // ramp, starts where they start, in every trial (a τ of its own in some trials would
+            // give its level from a curve that never nears it). With no such steps, nothing changes.
             let jump = q.and_then(|q| sr.jumps.get(q).copied().flatten());
             let far = typical.filter(|_| far_back(sr, f, lead_s));
             let mut tau = far.map_or(f.tau_s, |(tau_med, _)| tau_med);
@@ -96,7 +96,7 @@ fn typical_step(report: &Report, lead_s: f64) -> Option<(f64, f64)> {
             leads.extend(f.trials.iter().map(|tp| tp.t0 - tp.t_on));
         }
     }
-    if taus.is_empty() {
+    if taus.is_empty() || leads.is_empty() {
         return None;
     }
     Some((crate::sensor::preprocess::median(&mut taus), crate::sensor::preprocess::median(&mut leads)))
@@ -411,11 +411,10 @@ mod tests {
 
     /// A step's onset stays within the bound before its detected onset. Five 40 g steps up and
     /// down under five times the noise, 40 s holds, and from the third removal on a gap of 60 mV
-    /// that fades over 240 s (as a fading hysteresis leaves): the part-1 fit of the step after it
-    /// follows the fading with a τ it does not determine and puts its onset far back, into the
-    /// step before (the case is chosen so that one does, and asserts it); the baseline starts that
-    /// step where the other steps start, with their τ (without the bound: 207.9 s for a change
-    /// at 290.4 s).
+    /// that fades over 240 s (as a fading hysteresis leaves): a part-1 fit follows the fading and
+    /// puts a step's onset beyond the bound in a trial where it is no jump (the case is chosen so
+    /// that one does, and asserts it); the baseline starts every step within the bound, and such a
+    /// step with the typical τ and lead (without the bound: 207.9 s for a change at 290.4 s).
     #[test]
     fn a_steps_onset_is_bounded_to_the_logged_change() {
         let mut recs = fixture::recs_with(
