@@ -74,6 +74,14 @@ pub struct StepReport {
     pub jumps: Vec<Option<f64>>,
 }
 
+impl StepReport {
+    /// The time of trial `q`'s jump (in the pooled fit's order), when its step is a jump within
+    /// one sample.
+    pub fn jump(&self, q: usize) -> Option<f64> {
+        self.jumps.get(q).copied().flatten()
+    }
+}
+
 /// A fitted τ of at least this share of the hold describes creep: the step would not settle
 /// (within 1 %) before the hold ends.
 pub const CREEP_TAU_HOLD_SHARE: f64 = 0.2;
@@ -243,7 +251,7 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
                     let q = f.trials.iter().position(|tp| tp.recording == rec.source)?;
                     // a jump's edge is the jump (the fitted curve's, slower, would take the
                     // samples after it for spikes)
-                    let (t0, tau) = match sr.jumps.get(q).copied().flatten() {
+                    let (t0, tau) = match sr.jump(q) {
                         Some(tj) => (tj, fit::JUMP_TAU_SHARE / rec.sample_rate_hz()),
                         None => (f.trials[q].t0, f.tau_s),
                     };

@@ -26,7 +26,7 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
             // data set's other steps' τ (a starting value: the models refit it) and, without a
             // ramp, starts where they start, in every trial (a τ of its own in some trials would
             // give its level from a curve that never nears it). With no such steps, nothing changes.
-            let jump = q.and_then(|q| sr.jumps.get(q).copied().flatten());
+            let jump = q.and_then(|q| sr.jump(q));
             let far = typical.filter(|_| far_back(sr, f, lead_s));
             let mut tau = far.map_or(f.tau_s, |(tau_med, _)| tau_med);
             // a ramped load: the step's onset is the ramp's end, where the data set's ramp puts it;
@@ -82,7 +82,7 @@ fn onset_bound(recs: &[Recording]) -> f64 {
 /// Whether the step's part-1 fit `f` puts a trial's onset, where that trial's step is no jump,
 /// more than `lead_s` before its detected onset.
 fn far_back(sr: &analyze::StepReport, f: &crate::sensor::fit::StepFit, lead_s: f64) -> bool {
-    f.trials.iter().enumerate().any(|(q, tp)| sr.jumps.get(q).copied().flatten().is_none() && tp.t0 < tp.t_on - lead_s)
+    f.trials.iter().enumerate().any(|(q, tp)| sr.jump(q).is_none() && tp.t0 < tp.t_on - lead_s)
 }
 
 /// The median τ and the median onset after the detected one (t0 − t_on, ≤ 0) of the part-1 step
@@ -438,16 +438,8 @@ mod tests {
         }
         let b = fixture::built(&recs);
         let bound = onset_bound(&recs);
-        let far: Vec<(usize, f64)> = b
-            .report
-            .steps
-            .iter()
-            .enumerate()
-            .filter_map(|(k, s)| s.lsq.as_ref().map(|f| (k, s, f)))
-            .flat_map(|(k, s, f)| f.trials.iter().enumerate().filter(move |(q, _)| s.jumps.get(*q).copied().flatten().is_none()).map(move |(_, tp)| (k, tp.t0 - tp.t_on)))
-            .filter(|&(_, lead)| lead < -bound)
-            .collect();
-        assert!(!far.is_empty(), "the case has no step fitted with an onset beyond the bound");
+        let far = b.report.steps.iter().any(|s| s.lsq.as_ref().is_some_and(|f| far_back(s, f, bound)));
+        assert!(far, "the case has no step fitted with an onset beyond the bound");
         let (tau_med, lead_med) = typical_step(&b.report, bound).expect("steps within the bound");
         for tr in &b.trials {
             for sg in &tr.segs {
@@ -456,7 +448,7 @@ mod tests {
                 let q = f.trials.iter().position(|tp| tp.recording == tr.name).unwrap();
                 let tp = &f.trials[q];
                 assert!(sg.t0 >= tp.t_on - bound, "{}: a step at {} s starts at {} s", tr.name, sg.t_log, sg.t0);
-                if far_back(sr, f, bound) && sr.jumps[q].is_none() {
+                if far_back(sr, f, bound) && sr.jump(q).is_none() {
                     assert!((sg.t0 - tp.t_on - lead_med).abs() < 1e-9 && sg.tau == tau_med, "{}: {} s, τ {} s", tr.name, sg.t0, sg.tau);
                 }
             }
