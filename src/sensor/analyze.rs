@@ -3,6 +3,7 @@
 
 use super::catalogue::handling_spikes::{self, EdgeStep};
 use super::catalogue::saturation;
+use super::edges::{self, Bounded, Edge};
 use super::fashion::{self, Fashion, Readout};
 use super::fit::{self, PaperFit, StepData, StepFit};
 use super::preprocess::{self, Phase, Series, SpikeWindow, Step};
@@ -72,6 +73,12 @@ pub struct StepReport {
     /// Per trial of the pooled fit (in its order): the time of the step's jump when the step is a
     /// jump within one sample ([`fit::jump_time`]), else None.
     pub jumps: Vec<Option<f64>>,
+    /// Per trial of the pooled fit (in its order): the step's edge, the jump, the fitted onset or
+    /// one bounded to the detected change ([`edges`]).
+    pub edges: Vec<Edge>,
+    /// The data set's typical τ and onset, when this step's fitted onset lies further back than
+    /// the data allow ([`edges`]).
+    pub bounded: Option<Bounded>,
 }
 
 impl StepReport {
@@ -79,6 +86,10 @@ impl StepReport {
     /// one sample.
     pub fn jump(&self, q: usize) -> Option<f64> {
         self.jumps.get(q).copied().flatten()
+    }
+    /// Trial `q`'s edge (in the pooled fit's order).
+    pub fn edge(&self, q: usize) -> Option<Edge> {
+        self.edges.get(q).copied()
     }
 }
 
@@ -249,12 +260,10 @@ fn edge_spikes(recs: &[Recording], opts: &Options, prep: &Prepared, steps: &[Ste
                     let sr = report_of(st)?;
                     let f = sr.lsq.as_ref()?;
                     let q = f.trials.iter().position(|tp| tp.recording == rec.source)?;
-                    // a jump's edge is the jump (the fitted curve's, slower, would take the
-                    // samples after it for spikes)
-                    let (t0, tau) = match sr.jump(q) {
-                        Some(tj) => (tj, fit::JUMP_TAU_SHARE / rec.sample_rate_hz()),
-                        None => (f.trials[q].t0, f.tau_s),
-                    };
+                    // the step's edge (`edges`): a jump's is the jump (the fitted curve's, slower,
+                    // would take the samples after it for spikes); a fitted onset further back
+                    // than the data allow is bounded to the detected change
+                    let Edge { t0_s: t0, tau_s: tau, .. } = sr.edge(q)?;
                     let from = (st.t_log - preprocess::HANDLING_WINDOW_S).max(if k > 0 { own[k - 1].t_log + 0.5 * (st.t_log - own[k - 1].t_log) } else { f64::NEG_INFINITY });
                     let to = (st.t_log + preprocess::HANDLING_WINDOW_S).min(st.t_end);
                     // the level the step leaves: the step before it, or for the first the one that
@@ -326,6 +335,8 @@ fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepRep
         let creep = lsq.as_ref().and_then(|f| tau_describes_creep(f, hold_s, &jumps, dt));
         steps.push(StepReport {
             jumps,
+            edges: Vec::new(),
+            bounded: None,
             hold_s,
             tau_describes_creep: creep,
             phase: g.step.phase,
@@ -342,6 +353,7 @@ fn fit_steps(recs: &[Recording], opts: &Options, prep: &Prepared) -> Vec<StepRep
             trials: g.trials.len(),
         });
     }
+    edges::set(&mut steps, recs, opts.pre.ramp);
     steps
 }
 

@@ -105,6 +105,9 @@ pub fn fit(paths: &[PathBuf], method: Method, filter: bool, actuator: bool, out:
         if let Some(why) = &s.tau_describes_creep {
             lines.push(format!("  creep-dominated: {why}"));
         }
+        if let Some(b) = &s.bounded {
+            lines.push(format!("  onset bounded: {}", b.why));
+        }
     }
     if let Some(f) = &report.fashion {
         lines.push(format!("fashion: conductance ∝ (load + {:.1})^{:.3}; τ = {:.3} + {:.5}·load s", f.preload, f.n, f.tau0_s, f.tau1_s_per_unit));

@@ -9,6 +9,7 @@ pub mod csv_source;
 pub mod decimate;
 pub mod diagnose;
 pub mod diagnose_out;
+pub mod edges;
 pub mod fashion;
 pub mod fit;
 pub mod golden;

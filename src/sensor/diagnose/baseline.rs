@@ -6,8 +6,6 @@ use crate::sensor::preprocess::Ramp;
 
 pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], opts: &Options) -> Vec<Trial> {
     let ramp = opts.pre.ramp.filter(|r| r.duration_s > 0.0);
-    let lead_s = onset_bound(recs) + ramp.map_or(0.0, |r| r.duration_s);
-    let typical = typical_step(report, lead_s);
     let mut out = Vec::new();
     for (ri, rec) in recs.iter().enumerate() {
         let block = analyze::filter_block(rec, opts);
@@ -18,39 +16,28 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
             let sr = &report.steps[key];
             let Some(f) = sr.lsq.as_ref() else { continue };
             let q = f.trials.iter().position(|tp| tp.recording == rec.source);
-            let mut t0 = q.map(|q| f.trials[q].t0).unwrap_or(st.t_log);
-            // an onset the step's fit puts before the logged change's lead (and its ramp) in any
-            // trial that is no jump: its τ, which the data do not determine, describes the slow
-            // course of the hold, not the step (family A, a fading hysteresis: an unloading step's
-            // τ 256 s ± 345 s put its onset 144 s back, into the step before). The step takes the
-            // data set's other steps' τ (a starting value: the models refit it) and, without a
-            // ramp, starts where they start, in every trial (a τ of its own in some trials would
-            // give its level from a curve that never nears it). With no such steps, nothing changes.
-            let jump = q.and_then(|q| sr.jump(q));
-            let far = typical.filter(|_| far_back(sr, f, lead_s));
-            let mut tau = far.map_or(f.tau_s, |(tau_med, _)| tau_med);
+            // the step's edge in this trial (`edges`): a jump within one sample is modelled as
+            // one (the creep or relaxation after it is the diagnosis's); an onset the fit put
+            // further back than the data allow takes the data set's typical τ (a starting value:
+            // the models refit it) and onset, in every trial of the step
+            let edge = q.and_then(|q| sr.edge(q));
+            let bounded = sr.bounded.as_ref();
+            let mut t0 = edge.map_or(st.t_log, |e| e.t0_s);
+            let tau = edge.map_or(bounded.map_or(f.tau_s, |b| b.tau_s), |e| e.tau_s);
             // a ramped load: the step's onset is the ramp's end, where the data set's ramp puts it;
             // its duration is the step's own (an actuator's travel differs from step to step)
             let mut input = LoadIn::default();
             if let Some(r) = ramp {
-                // a trial without its own part-1 fit of this step (or with one whose onset is
-                // too far back) keeps the data set's ramp
+                // a trial without its own part-1 fit of this step (or a bounded step) keeps the
+                // data set's ramp
                 t0 = st.t_log + r.end_after_log_s;
                 input = LoadIn { ramp_s: r.duration_s, smooth: r.smooth, curve: 0.0 };
-                if let (Some(q), None) = (q, far) {
+                if let (Some(q), None) = (q, bounded) {
                     let prev_end_s =
                         prep.steps[ri].iter().filter(|p| p.t_log < st.t_log).map(|p| p.t_log + r.end_after_log_s).fold(series.t.first().copied().unwrap_or(0.0), f64::max);
                     let next_start_s = prep.steps[ri].iter().filter(|p| p.t_log > st.t_log).map(|p| p.t_log + r.end_after_log_s - r.duration_s).fold(f64::INFINITY, f64::min);
                     (t0, input) = step_ramp(series, t0, (f.trials[q].v0, f.k, f.tau_s), r, (prev_end_s, next_start_s));
                 }
-            }
-            // a jump within one sample (fit::jump_time) is modelled as one; the creep or
-            // relaxation after it is the diagnosis's
-            if let Some(tj) = jump {
-                t0 = tj;
-                tau = crate::sensor::fit::JUMP_TAU_SHARE / rec.sample_rate_hz();
-            } else if let (Some(q), None, Some((_, lead_med))) = (q, ramp, far) {
-                t0 = f.trials[q].t_on + lead_med;
             }
             segs.push(Seg { key, t0, load: st.after, prev: st.before, tau, phase: st.phase, t_log: st.t_log, input, sim: None });
         }
@@ -71,35 +58,6 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
         });
     }
     out
-}
-
-/// How far before the detected onset a step's fitted curve may begin
-/// (`fit::ONSET_LEAD_S`, at least five samples of the slowest recording).
-fn onset_bound(recs: &[Recording]) -> f64 {
-    recs.iter().map(|r| 5.0 / r.sample_rate_hz()).fold(crate::sensor::fit::ONSET_LEAD_S, f64::max)
-}
-
-/// Whether the step's part-1 fit `f` puts a trial's onset, where that trial's step is no jump,
-/// more than `lead_s` before its detected onset.
-fn far_back(sr: &analyze::StepReport, f: &crate::sensor::fit::StepFit, lead_s: f64) -> bool {
-    f.trials.iter().enumerate().any(|(q, tp)| sr.jump(q).is_none() && tp.t0 < tp.t_on - lead_s)
-}
-
-/// The median τ and the median onset after the detected one (t0 − t_on, ≤ 0) of the part-1 step
-/// fits whose onsets all lie within `lead_s` of the detected ones (the bound and the load's ramp);
-/// None when no step's do.
-fn typical_step(report: &Report, lead_s: f64) -> Option<(f64, f64)> {
-    let (mut taus, mut leads) = (Vec::new(), Vec::new());
-    for f in report.steps.iter().filter_map(|s| s.lsq.as_ref()) {
-        if f.trials.iter().all(|tp| tp.t0 >= tp.t_on - lead_s) && f.tau_s.is_finite() {
-            taus.push(f.tau_s);
-            leads.extend(f.trials.iter().map(|tp| tp.t0 - tp.t_on));
-        }
-    }
-    if taus.is_empty() || leads.is_empty() {
-        return None;
-    }
-    Some((crate::sensor::preprocess::median(&mut taus), crate::sensor::preprocess::median(&mut leads)))
 }
 
 /// The simulator as the baseline: its sensor model and the preload (g) on top of the logged loads.
@@ -410,14 +368,14 @@ mod tests {
     }
 
     /// A step's onset stays within the bound before its detected onset. Five 40 g steps up and
-    /// down under five times the noise, 40 s holds, and from the third removal on a gap of 60 mV
+    /// down under five times the noise, 40 s holds, and from the third removal on a gap of 100 mV
     /// that fades over 240 s (as a fading hysteresis leaves): a part-1 fit follows the fading and
     /// puts a step's onset beyond the bound in a trial where it is no jump (the case is chosen so
     /// that one does, and asserts it); the baseline starts every step within the bound, and such a
-    /// step with the typical τ and lead (without the bound: 207.9 s for a change at 290.4 s).
+    /// step with the typical τ and lead (without the bound: 279.4 s for a change at 290.4 s).
     #[test]
     fn a_steps_onset_is_bounded_to_the_logged_change() {
-        let mut recs = fixture::recs_with(
+        let (mut recs, truth) = fixture::recs_and_truth_with(
             94_010,
             |s| s.noise_v *= 5.0,
             |p| {
@@ -426,21 +384,24 @@ mod tests {
                 p.top_hold_s = 40.0
             },
         );
-        // after the third removal, a gap that fades over 240 s
-        for r in recs.iter_mut() {
-            let downs: Vec<f64> = (1..r.protocol.len()).filter(|&j| r.protocol[j] < r.protocol[j - 1]).map(|j| r.time_s[j]).collect();
-            let ts = downs[2];
+        // after the third removal, a gap that fades over 240 s; it builds up with the sensor's own
+        // step from the load's landing (a gap from the logged change would be a bump before it:
+        // a handling spike at the edge)
+        for (r, tr) in recs.iter_mut().zip(&truth) {
+            let st = tr.steps.iter().filter(|s| s.load_after_g < s.load_before_g).nth(2).expect("a third removal");
+            let (ts, tau) = (st.t_land_s, st.tau_s);
             for (v, &t) in r.response.iter_mut().zip(&r.time_s) {
                 if t >= ts {
-                    *v += 0.06 * (-(t - ts) / 240.0).exp();
+                    *v += 0.1 * (-(t - ts) / 240.0).exp() * (1.0 - (-(t - ts) / tau).exp());
                 }
             }
         }
         let b = fixture::built(&recs);
+        use crate::sensor::edges::{far_back, onset_bound, typical_step, EdgeKind};
         let bound = onset_bound(&recs);
         let far = b.report.steps.iter().any(|s| s.lsq.as_ref().is_some_and(|f| far_back(s, f, bound)));
         assert!(far, "the case has no step fitted with an onset beyond the bound");
-        let (tau_med, lead_med) = typical_step(&b.report, bound).expect("steps within the bound");
+        let (tau_med, lead_med) = typical_step(&b.report.steps, bound).expect("steps within the bound");
         for tr in &b.trials {
             for sg in &tr.segs {
                 let sr = &b.report.steps[sg.key];
@@ -450,6 +411,9 @@ mod tests {
                 assert!(sg.t0 >= tp.t_on - bound, "{}: a step at {} s starts at {} s", tr.name, sg.t_log, sg.t0);
                 if far_back(sr, f, bound) && sr.jump(q).is_none() {
                     assert!((sg.t0 - tp.t_on - lead_med).abs() < 1e-9 && sg.tau == tau_med, "{}: {} s, τ {} s", tr.name, sg.t0, sg.tau);
+                    // part 1's report carries the same edge, for the edge search and `fit`'s notes
+                    assert_eq!(sr.edge(q).map(|e| e.kind), Some(EdgeKind::Bounded), "{}: the report's edge", tr.name);
+                    assert!(sr.bounded.as_ref().is_some_and(|b| b.why.contains("typical τ")), "{}: no note", tr.name);
                 }
             }
         }

@@ -1,0 +1,112 @@
+//! A step's edge in each trial: where part 1's model puts the step's onset, and with what τ.
+//!
+//! Three kinds. A step that lands within one sample is a **jump** ([`fit::jump_time`]). A step
+//! whose pooled fit puts a trial's onset further before the detected change than the data allow
+//! (more than max(2 s, 5 samples of the slowest recording), plus the load's ramp when one is
+//! modelled) is **bounded**: its τ, which the data do not determine, follows the slow course of
+//! the hold (a fading hysteresis, a creep), and its curve would start in the step before. It
+//! takes the data set's typical τ and onset (the median τ, and the median lead over the detected
+//! onset, of the steps whose curves start within the bound in every trial). Every other step's
+//! edge is the one **fitted**.
+//!
+//! Read by the search for handling spikes at the steps' edges (`analyze`) and by the diagnosis's
+//! baseline, so both see one edge.
+
+use super::analyze::StepReport;
+use super::fit::{self, StepFit};
+use super::preprocess::{self, Ramp};
+use super::recording::Recording;
+use serde::Serialize;
+
+/// How a trial's edge was set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EdgeKind {
+    Jump,
+    Fitted,
+    Bounded,
+}
+
+/// A trial's step edge: the onset of its first-order curve and its τ.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Edge {
+    pub t0_s: f64,
+    pub tau_s: f64,
+    pub kind: EdgeKind,
+}
+
+/// A step whose onset is bounded: the data set's typical τ and lead over the detected onset
+/// (t0 − t_on, ≤ 0), and why, in words.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Bounded {
+    pub tau_s: f64,
+    pub lead_s: f64,
+    pub why: String,
+}
+
+/// Sets every step's `edges` (one per trial of its pooled fit) and `bounded`, from the steps' fits
+/// and jumps. `ramp`: the load's modelled ramp, if any.
+pub fn set(steps: &mut [StepReport], recs: &[Recording], ramp: Option<Ramp>) {
+    let ramp_s = ramp.filter(|r| r.duration_s > 0.0).map_or(0.0, |r| r.duration_s);
+    let lead_s = onset_bound(recs) + ramp_s;
+    let typical = typical_step(steps, lead_s);
+    for sr in steps.iter_mut() {
+        let Some(f) = sr.lsq.as_ref() else { continue };
+        let bounded = typical.filter(|_| far_back(sr, f, lead_s)).map(|(tau_s, lead)| Bounded { tau_s, lead_s: lead, why: why(f, lead_s, (tau_s, lead)) });
+        let edges = f
+            .trials
+            .iter()
+            .enumerate()
+            .map(|(q, tp)| match (sr.jump(q), &bounded) {
+                (Some(tj), _) => {
+                    let rate = recs.iter().find(|r| r.source == tp.recording).map_or(f64::INFINITY, Recording::sample_rate_hz);
+                    Edge { t0_s: tj, tau_s: fit::JUMP_TAU_SHARE / rate, kind: EdgeKind::Jump }
+                }
+                (None, Some(b)) => Edge { t0_s: tp.t_on + b.lead_s, tau_s: b.tau_s, kind: EdgeKind::Bounded },
+                (None, None) => Edge { t0_s: tp.t0, tau_s: f.tau_s, kind: EdgeKind::Fitted },
+            })
+            .collect();
+        sr.edges = edges;
+        sr.bounded = bounded;
+    }
+}
+
+/// The bounded step's note: the farthest fitted onset, the fitted τ and what the step takes.
+fn why(f: &StepFit, lead_s: f64, (tau_s, lead): (f64, f64)) -> String {
+    let back = f.trials.iter().map(|tp| tp.t_on - tp.t0).fold(0.0, f64::max);
+    format!(
+        "the fit puts the onset up to {back:.1} s before the detected change (the data allow {lead_s:.1} s), with τ = {:.3} s ± {:.3} s: that τ follows the slow course of the hold, not the step; the step is modelled with the recording's typical τ = {tau_s:.3} s and onset {:.2} s before the detected change",
+        f.tau_s,
+        f.se_tau_s,
+        -lead
+    )
+}
+
+/// How far before the detected onset a step's fitted curve may begin
+/// (`fit::ONSET_LEAD_S`, at least five samples of the slowest recording).
+pub fn onset_bound(recs: &[Recording]) -> f64 {
+    recs.iter().map(|r| 5.0 / r.sample_rate_hz()).fold(fit::ONSET_LEAD_S, f64::max)
+}
+
+/// Whether the step's part-1 fit `f` puts a trial's onset, where that trial's step is no jump,
+/// more than `lead_s` before its detected onset.
+pub fn far_back(sr: &StepReport, f: &StepFit, lead_s: f64) -> bool {
+    f.trials.iter().enumerate().any(|(q, tp)| sr.jump(q).is_none() && tp.t0 < tp.t_on - lead_s)
+}
+
+/// The median τ and the median onset after the detected one (t0 − t_on, ≤ 0) of the part-1 step
+/// fits whose onsets all lie within `lead_s` of the detected ones (the bound and the load's ramp);
+/// None when no step's do.
+pub fn typical_step(steps: &[StepReport], lead_s: f64) -> Option<(f64, f64)> {
+    let (mut taus, mut leads) = (Vec::new(), Vec::new());
+    for f in steps.iter().filter_map(|s| s.lsq.as_ref()) {
+        if f.trials.iter().all(|tp| tp.t0 >= tp.t_on - lead_s) && f.tau_s.is_finite() {
+            taus.push(f.tau_s);
+            leads.extend(f.trials.iter().map(|tp| tp.t0 - tp.t_on));
+        }
+    }
+    if taus.is_empty() || leads.is_empty() {
+        return None;
+    }
+    Some((preprocess::median(&mut taus), preprocess::median(&mut leads)))
+}
