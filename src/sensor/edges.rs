@@ -110,3 +110,62 @@ pub fn typical_step(steps: &[StepReport], lead_s: f64) -> Option<(f64, f64)> {
     }
     Some((preprocess::median(&mut taus), preprocess::median(&mut leads)))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::sensor::{ProtocolParams, SensorParams};
+    use crate::params::SourceFile;
+    use crate::sensor::analyze;
+
+    fn load(name: &str) -> SourceFile {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("params").join(name);
+        SourceFile::parse(&path.display().to_string(), std::fs::read_to_string(&path).unwrap()).unwrap()
+    }
+
+    /// Five 40 g steps up and down under five times the noise, and after the third removal a
+    /// 100 mV gap that fades over 240 s, building up with the sensor's step: that step's pooled
+    /// fit follows the fading and puts its onsets far back. Its edges are bounded (the typical τ,
+    /// within the bound of the detected onsets) and say why; every other step's edge is its fit's.
+    #[test]
+    fn a_far_back_onset_is_bounded_and_the_others_are_the_fits() {
+        let mut s = SensorParams::from_source(&load("sensor.toml")).unwrap();
+        s.noise_v *= 5.0;
+        let mut p = ProtocolParams::from_source(&load("protocol-1000g.toml")).unwrap();
+        p.weights_g = vec![40.0; 5];
+        p.hold_s = 40.0;
+        p.top_hold_s = 40.0;
+        let mut recs = Vec::new();
+        for k in 0..3 {
+            let (mut r, truth) = crate::sensor::sim::simulate(&s, &p, 20.0, None, 94_010 + k);
+            let st = truth.steps.iter().filter(|s| s.load_after_g < s.load_before_g).nth(2).unwrap();
+            for (v, &t) in r.response.iter_mut().zip(&r.time_s) {
+                if t >= st.t_land_s {
+                    *v += 0.1 * (-(t - st.t_land_s) / 240.0).exp() * (1.0 - (-(t - st.t_land_s) / st.tau_s).exp());
+                }
+            }
+            recs.push(r);
+        }
+        let (report, _) = analyze::analyze(&recs, &analyze::Options::default());
+        let bound = onset_bound(&recs);
+        let (tau_med, lead_med) = typical_step(&report.steps, bound).expect("steps within the bound");
+        let mut bounded = 0;
+        for sr in &report.steps {
+            let f = sr.lsq.as_ref().unwrap();
+            assert_eq!(sr.edges.len(), f.trials.len());
+            for (q, (e, tp)) in sr.edges.iter().zip(&f.trials).enumerate() {
+                match e.kind {
+                    EdgeKind::Jump => assert_eq!(Some(e.t0_s), sr.jump(q)),
+                    EdgeKind::Fitted => assert!(e.t0_s == tp.t0 && e.tau_s == f.tau_s && sr.bounded.is_none()),
+                    EdgeKind::Bounded => {
+                        bounded += 1;
+                        assert!(e.t0_s >= tp.t_on - bound, "{:?} {}: {} s for {} s", sr.phase, sr.index, e.t0_s, tp.t_on);
+                        assert!(e.tau_s == tau_med && (e.t0_s - tp.t_on - lead_med).abs() < 1e-12);
+                        assert!(far_back(sr, f, bound) && sr.bounded.as_ref().is_some_and(|b| b.why.contains("typical τ")));
+                    }
+                }
+            }
+        }
+        assert!(bounded > 0, "no step's onset was bounded: the case no longer tests the bound");
+    }
+}
