@@ -53,6 +53,7 @@ mod refit;
 mod report;
 mod select;
 mod spectrum;
+mod spikes;
 mod terms;
 mod through;
 mod touch;
@@ -217,25 +218,6 @@ fn run_spike_checked(recs: &[Recording], opts: &Options, sim: Option<&SimBaselin
     Some(*again)
 }
 
-/// Whether the windows the spike detectors found are the model's misfit rather than spikes: their
-/// exclusion raises the baseline's held-out RMSE (`clean` against `b.base`). A rise within
-/// `gate::MIN_ROBUST_GAIN` is a tie, which short windows among thousands of samples often are
-/// (family A under family B's forms, 40 g steps: ten 0.15 s spikes of 20 σ per trial moved it
-/// 0.0260 → 0.0260 V, and a lone 3–4 σ excursion in a null case as little). A tie is then decided
-/// by the detectors' own evidence: the windows are spikes when the largest excursion in them is at
-/// least `handling_spikes::MIN_Z` times its recording's raw noise.
-fn spikes_rejected(b: &Built, clean: &Score) -> bool {
-    let rise = clean.heldout_rmse / b.base.heldout_rmse.max(1e-300) - 1.0;
-    if rise <= 0.0 {
-        return false;
-    }
-    if rise > gate::MIN_ROBUST_GAIN {
-        return true;
-    }
-    let peak_z = b.report.recordings.iter().flat_map(|r| r.spikes.iter().map(move |w| w.peak.abs() / r.noise_sigma_raw.max(1e-300))).fold(0.0, f64::max);
-    peak_z < catalogue::handling_spikes::MIN_Z
-}
-
 /// The diagnosis, stage by stage; `built` is the baseline when the ramp's search built it already.
 fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_always: bool, built: Option<Built>) -> Option<Outcome> {
     // 1. the baseline: the paper's model from part 1's step fits (or the simulator), held out
@@ -245,7 +227,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     };
     // 2. handling spikes are excluded only when that predicts held-out data better
     let (clean, xc) = if b.has_spikes { score(&b.d, &b.trials, &b.base_cfg, &b.hat)? } else { (b.base.clone(), b.xb.clone()) };
-    if b.has_spikes && spikes_rejected(&b, &clean) {
+    if b.has_spikes && spikes::rejected(&b, &clean) {
         let windows = signature(Effect::HandlingSpikes, &[], &b.trials, None, &b.report);
         return Some(Outcome::SpikesRejected { windows, before: b.base.heldout_rmse, after: clean.heldout_rmse, unit: b.report.unit.clone() });
     }
