@@ -228,7 +228,7 @@ fn run(recs: &[Recording], opts: &Options, sim: Option<&SimBaseline>, refit_alwa
     };
     // 2. handling spikes are excluded unless that predicts held-out data worse (`spikes`)
     let (clean, xc) = if b.has_spikes { score(&b.d, &b.trials, &b.base_cfg, &b.hat)? } else { (b.base.clone(), b.xb.clone()) };
-    if b.has_spikes && spikes::rejected(&b, &clean) {
+    if b.has_spikes && spikes::rejected(&b, &clean, recs) {
         let windows = signature(Effect::HandlingSpikes, &[], &b.trials, None, &b.report);
         return Some(Outcome::SpikesRejected { windows, before: b.base.heldout_rmse, after: clean.heldout_rmse, unit: b.report.unit.clone() });
     }

@@ -9,8 +9,8 @@ use super::*;
 /// (family A under family B's forms, 40 g steps: ten 0.15 s spikes of 20 σ per trial moved it
 /// 0.0260 → 0.0260 V, and a lone 3–4 σ excursion in a null case as little). A tie is then decided
 /// by the detectors' own evidence: the windows are spikes when the largest excursion in them is at
-/// least `handling_spikes::MIN_Z` times its recording's raw noise.
-pub(super) fn rejected(b: &Built, clean: &Score) -> bool {
+/// least `handling_spikes::MIN_Z` times the noise around it (`local_noise`).
+pub(super) fn rejected(b: &Built, clean: &Score, recs: &[Recording]) -> bool {
     let rise = clean.heldout_rmse / b.base.heldout_rmse.max(1e-300) - 1.0;
     if rise <= 0.0 {
         return false;
@@ -18,8 +18,32 @@ pub(super) fn rejected(b: &Built, clean: &Score) -> bool {
     if rise > gate::MIN_ROBUST_GAIN {
         return true;
     }
-    let peak_z = b.report.recordings.iter().flat_map(|r| r.spikes.iter().map(move |w| w.peak.abs() / r.noise_sigma_raw.max(1e-300))).fold(0.0, f64::max);
+    let peak_z = b
+        .report
+        .recordings
+        .iter()
+        .flat_map(|r| {
+            let rec = recs.iter().find(|x| x.source == r.source);
+            r.spikes.iter().map(move |w| w.peak.abs() / rec.map_or(r.noise_sigma_raw, |rec| local_noise(rec, w)).max(1e-300))
+        })
+        .fold(0.0, f64::max);
     peak_z < catalogue::handling_spikes::MIN_Z
+}
+
+/// The raw noise around a window: the larger of the robust σ of the samples in the
+/// `preprocess::HANDLING_WINDOW_S` before it and after it (a sensor's noise may grow with its
+/// resistance tenfold between two levels: a recording's one σ would make the noisy level's
+/// excursions look large).
+fn local_noise(rec: &Recording, w: &crate::sensor::preprocess::SpikeWindow) -> f64 {
+    let span = crate::sensor::preprocess::HANDLING_WINDOW_S;
+    let side = |from: f64, to: f64| {
+        let v: Vec<f64> = rec.time_s.iter().zip(&rec.response).filter(|(t, _)| **t >= from && **t < to).map(|(_, v)| *v).collect();
+        (v.len() >= 10).then(|| crate::sensor::preprocess::noise_sigma(&v))
+    };
+    match (side(w.start_s - span, w.start_s), side(w.end_s + 1e-9, w.end_s + span)) {
+        (None, None) => crate::sensor::preprocess::noise_sigma(&rec.response),
+        (a, b) => a.unwrap_or(0.0).max(b.unwrap_or(0.0)),
+    }
 }
 
 #[cfg(test)]
@@ -60,7 +84,7 @@ mod tests {
         let (clean, _) = score(&b.d, &b.trials, &b.base_cfg, &b.hat).unwrap();
         let rise = clean.heldout_rmse / b.base.heldout_rmse - 1.0;
         assert!(rise > 0.0 && rise <= gate::MIN_ROBUST_GAIN, "not a tie: {rise}");
-        assert!(!rejected(&b, &clean), "the spikes were rejected");
+        assert!(!rejected(&b, &clean, &recs), "the spikes were rejected");
         let d = diagnose(&recs, &Options::default()).unwrap();
         assert!(d.findings.iter().any(|f| f.effect == "handling_spikes"), "{:?}", d.findings.iter().map(|f| f.effect).collect::<Vec<_>>());
     }
