@@ -52,7 +52,7 @@ pub fn set(steps: &mut [StepReport], recs: &[Recording], ramp: Option<Ramp>) {
     let typical = typical_step(steps, lead_s);
     for sr in steps.iter_mut() {
         let Some(f) = sr.lsq.as_ref() else { continue };
-        let bounded = typical.filter(|_| far_back(sr, f, lead_s)).map(|(tau_s, lead)| Bounded { tau_s, lead_s: lead, why: why(f, lead_s, (tau_s, lead)) });
+        let bounded = typical.filter(|_| far_back(sr, f, lead_s)).map(|(tau_s, lead)| Bounded { tau_s, lead_s: lead, why: why(sr, f, lead_s, (tau_s, lead)) });
         let edges = f
             .trials
             .iter()
@@ -71,11 +71,12 @@ pub fn set(steps: &mut [StepReport], recs: &[Recording], ramp: Option<Ramp>) {
     }
 }
 
-/// The bounded step's note: the farthest fitted onset, the fitted τ and what the step takes.
-fn why(f: &StepFit, lead_s: f64, (tau_s, lead): (f64, f64)) -> String {
-    let back = f.trials.iter().map(|tp| tp.t_on - tp.t0).fold(0.0, f64::max);
+/// The bounded step's note: the farthest fitted onset of a trial that is no jump, the fitted τ and
+/// what the step takes (without a ramp: with one, the onset is the data set's ramp's end).
+fn why(sr: &StepReport, f: &StepFit, lead_s: f64, (tau_s, lead): (f64, f64)) -> String {
+    let back = f.trials.iter().enumerate().filter(|(q, _)| sr.jump(*q).is_none()).map(|(_, tp)| tp.t_on - tp.t0).fold(0.0, f64::max);
     format!(
-        "the fit puts the onset up to {back:.1} s before the detected change (the data allow {lead_s:.1} s), with τ = {:.3} s ± {:.3} s: that τ follows the slow course of the hold, not the step; the step is modelled with the recording's typical τ = {tau_s:.3} s and onset {:.2} s before the detected change",
+        "the fit puts the onset up to {back:.1} s before the detected change (the data allow {lead_s:.1} s), with τ = {:.3} s ± {:.3} s: that τ follows the slow course of the hold, not the step; the step is modelled with the data set's typical τ = {tau_s:.3} s and onset {:.2} s before the detected change",
         f.tau_s,
         f.se_tau_s,
         -lead

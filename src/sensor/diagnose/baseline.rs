@@ -21,6 +21,8 @@ pub(super) fn trials_from(report: &Report, prep: &Prepared, recs: &[Recording], 
             // further back than the data allow takes the data set's typical τ (a starting value:
             // the models refit it) and onset, in every trial of the step
             let edge = q.and_then(|q| sr.edge(q));
+            // (a ramped load is never a jump: part 1 marks none, so the ramp's onset below stands)
+            debug_assert!(ramp.is_none() || edge.is_none_or(|e| e.kind != crate::sensor::edges::EdgeKind::Jump));
             let bounded = sr.bounded.as_ref();
             let mut t0 = edge.map_or(st.t_log, |e| e.t0_s);
             let tau = edge.map_or(bounded.map_or(f.tau_s, |b| b.tau_s), |e| e.tau_s);

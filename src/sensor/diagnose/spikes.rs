@@ -12,7 +12,8 @@ use super::*;
 /// least `handling_spikes::MIN_Z` times the noise around it (`local_noise`).
 pub(super) fn rejected(b: &Built, clean: &Score, recs: &[Recording]) -> bool {
     let rise = clean.heldout_rmse / b.base.heldout_rmse.max(1e-300) - 1.0;
-    if rise <= 0.0 {
+    // (a NaN is no evidence against the detectors)
+    if !(rise > 0.0) {
         return false;
     }
     if rise > gate::MIN_ROBUST_GAIN {
