@@ -314,11 +314,9 @@ pub(super) fn diagnosis(
         n.params = term_params(&d, &cur, &cur_x, Effect::RestRelaxation, &hat);
     }
     let final_names = final_names(&cur, &mut findings, spectrum_exact.as_ref());
-    let mut notes: Vec<String> =
-        report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{:?} step {} ({} → {}): {why}", s.phase, s.index + 1, s.before, s.after))).collect();
-    notes.extend(
-        report.steps.iter().filter_map(|s| s.bounded.as_ref().map(|b| format!("{:?} step {} ({} → {}), onset bounded: {}", s.phase, s.index + 1, s.before, s.after, b.why))),
-    );
+    let step = |s: &analyze::StepReport| format!("{:?} step {} ({} → {})", s.phase, s.index + 1, s.before, s.after);
+    let mut notes: Vec<String> = report.steps.iter().filter_map(|s| s.tau_describes_creep.as_ref().map(|why| format!("{}: {why}", step(s)))).collect();
+    notes.extend(report.steps.iter().filter_map(|s| s.bounded.as_ref().map(|b| format!("{}, onset bounded: {}", step(s), b.why))));
     notes.extend(dropped);
     if let Some(w) = touch {
         notes.push(format!(

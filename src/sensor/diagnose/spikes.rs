@@ -19,15 +19,8 @@ pub(super) fn rejected(b: &Built, clean: &Score, recs: &[Recording]) -> bool {
     if rise > gate::MIN_ROBUST_GAIN {
         return true;
     }
-    let peak_z = b
-        .report
-        .recordings
-        .iter()
-        .flat_map(|r| {
-            let rec = recs.iter().find(|x| x.source == r.source);
-            r.spikes.iter().map(move |w| w.peak.abs() / rec.map_or(r.noise_sigma_raw, |rec| local_noise(rec, w)).max(1e-300))
-        })
-        .fold(0.0, f64::max);
+    // (part 1's report has one entry per recording, in their order)
+    let peak_z = b.report.recordings.iter().zip(recs).flat_map(|(r, rec)| r.spikes.iter().map(move |w| w.peak.abs() / local_noise(rec, w).max(1e-300))).fold(0.0, f64::max);
     peak_z < catalogue::handling_spikes::MIN_Z
 }
 
@@ -37,9 +30,11 @@ pub(super) fn rejected(b: &Built, clean: &Score, recs: &[Recording]) -> bool {
 /// excursions look large).
 fn local_noise(rec: &Recording, w: &crate::sensor::preprocess::SpikeWindow) -> f64 {
     let span = crate::sensor::preprocess::HANDLING_WINDOW_S;
+    // (the samples' times rise: each side is a slice, found by bisection)
+    let at = |t: f64| rec.time_s.partition_point(|&x| x < t);
     let side = |from: f64, to: f64| {
-        let v: Vec<f64> = rec.time_s.iter().zip(&rec.response).filter(|(t, _)| **t >= from && **t < to).map(|(_, v)| *v).collect();
-        (v.len() >= 10).then(|| crate::sensor::preprocess::noise_sigma(&v))
+        let v = &rec.response[at(from)..at(to).max(at(from))];
+        (v.len() >= 10).then(|| crate::sensor::preprocess::noise_sigma(v))
     };
     match (side(w.start_s - span, w.start_s), side(w.end_s + 1e-9, w.end_s + span)) {
         (None, None) => crate::sensor::preprocess::noise_sigma(&rec.response),
