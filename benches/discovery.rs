@@ -26,6 +26,8 @@ enum E {
     Drift,
     Sat,
     Spikes,
+    /// Handling spikes as presses of force (family B's form; `effects.handling_spikes.force_share`).
+    SpikesInForce,
 }
 
 impl E {
@@ -36,7 +38,7 @@ impl E {
             E::Second => "second_time_constant",
             E::Drift => "baseline_drift",
             E::Sat => "saturation",
-            E::Spikes => "handling_spikes",
+            E::Spikes | E::SpikesInForce => "handling_spikes",
         }
     }
     /// Sets the effect's magnitude (for saturation: how far below the top level the clip sits).
@@ -48,6 +50,7 @@ impl E {
             E::Drift => s.effects.drift_v_per_s = m,
             E::Sat => s.effects.saturation_v = top - m,
             E::Spikes => s.effects.spike_v = m,
+            E::SpikesInForce => s.effects.spike_force_share = m,
         }
     }
 }
@@ -75,7 +78,11 @@ fn effect_rms(s0: &SensorParams, (p, pre): (&ProtocolParams, f64), e: E, m: f64,
 
 /// The magnitude that gives a target effect RMS (bisection in log magnitude).
 fn magnitude_for(s0: &SensorParams, p: (&ProtocolParams, f64), e: E, target: f64, top: f64) -> f64 {
-    let (mut lo, mut hi) = (1e-7f64, if e == E::Sat { top } else { 1.0 });
+    let (mut lo, mut hi) = (1e-7f64, match e {
+        E::Sat => top,
+        E::SpikesInForce => 100.0,
+        _ => 1.0,
+    });
     for _ in 0..50 {
         let mid = (lo * hi).sqrt();
         if effect_rms(s0, p, e, mid, top) < target {
@@ -160,7 +167,9 @@ const B_FORMS_40_HYST_G: &str = "the same (40 g) with family B's hysteresis: in 
 const B_FORMS_200_HYST_G: &str = "the same (200 g) with family B's hysteresis: in the conductance, a 60 s memory";
 const B_FORMS_40_SECOND_G: &str = "family B's forms with the second relaxation of the conductance, 40 g steps";
 const B_FORMS_200_SECOND_G: &str = "family B's forms with the second relaxation of the conductance, 200 g steps";
-const RAILS_BY_RMS: [&str; 12] = [
+const B_FORMS_40_FORCE_SPIKES: &str = "family B's forms with handling spikes as presses of force within the touch, 40 g steps";
+const B_FORMS_200_FORCE_SPIKES: &str = "family B's forms with handling spikes as presses of force within the touch, 200 g steps";
+const RAILS_BY_RMS: [&str; 14] = [
     RAIL_BY_RMS_40,
     RAIL_BY_RMS_200,
     RAIL_BY_RMS_40_LAB,
@@ -173,6 +182,8 @@ const RAILS_BY_RMS: [&str; 12] = [
     B_FORMS_200_HYST_G,
     B_FORMS_40_SECOND_G,
     B_FORMS_200_SECOND_G,
+    B_FORMS_40_FORCE_SPIKES,
+    B_FORMS_200_FORCE_SPIKES,
 ];
 /// The variation without a preload.
 const NO_PRELOAD: &str = "no preload: the zero-load level at the ADC's floor (0 V)";
@@ -458,6 +469,10 @@ fn main() {
         // of the conductance relaxes with τ2, seen through the divider
         (B_FORMS_40_SECOND_G, b_forms_second_in_conductance(40.0)),
         (B_FORMS_200_SECOND_G, b_forms_second_in_conductance(200.0)),
+        // the same with family B's form of handling spikes (stop 55): a press of force at about
+        // half of the placements and removals, within the touch, through the sensor's response
+        (B_FORMS_40_FORCE_SPIKES, b_forms(40.0)),
+        (B_FORMS_200_FORCE_SPIKES, b_forms(200.0)),
     ];
     // TIPFORGE_DISCOVERY_VARIATION_SIGMA=3: the rows' effects at 3σ instead of 1σ (probes; a rail
     // whose height is not set by its RMS keeps its height)
@@ -483,6 +498,8 @@ fn main() {
                 seed += 10 * n;
                 continue;
             }
+            // family B's form of handling spikes: presses of force
+            let e = if e == E::Spikes && [B_FORMS_40_FORCE_SPIKES, B_FORMS_200_FORCE_SPIKES].contains(&label) { E::SpikesInForce } else { e };
             let m = magnitude_for(&sv, (&pv, pre), e, k_sigma * sv.noise_v, topv);
             let mut s = sv.clone();
             e.set(&mut s, m, topv);

@@ -65,6 +65,11 @@ pub struct Effects {
     /// Handling spike at each placement/removal: amplitude and duration.
     pub spike_v: f64,
     pub spike_s: f64,
+    /// Handling spikes as presses of force (family B's form; 0 = off): at about half of the
+    /// placements and removals, a sin² press of about this many times the weight changed (each
+    /// drawn 0.3–1.7 × it), 0.03–0.15 s long, somewhere within the hand's touch, seen through the
+    /// sensor's response (its conductance law and first-order relaxation), not added to the output.
+    pub spike_force_share: f64,
 }
 
 /// What differs between the trials of one data set and is not sensor physics (all 0 = off): the
@@ -154,7 +159,7 @@ static SECOND: Schema = Schema { fields: || &["fraction", "tau_s", "in_conductan
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s", "warmup_tau_s"], tables: &[] };
 static SAT: Schema = Schema { fields: || &["level_v", "before_noise"], tables: &[] };
 static NUISANCE: Schema = Schema { fields: || &["gain_jitter", "rest_v", "rest_tau_s", "rest_raised", "noise_ar_rho", "noise_ar_share"], tables: &[] };
-static SPIKES: Schema = Schema { fields: || &["amplitude_v", "duration_s"], tables: &[] };
+static SPIKES: Schema = Schema { fields: || &["amplitude_v", "duration_s", "force_share"], tables: &[] };
 static EFFECTS: Schema = Schema {
     fields: || &[],
     tables: &[
@@ -287,6 +292,7 @@ impl SensorParams {
             saturation_v: num(&mut c, &e("saturation"), "effects.saturation", "level_v", 0.0, 0.0, 48.0).unwrap_or(0.0),
             spike_v: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "amplitude_v", 0.0, 0.0, 48.0).unwrap_or(0.0),
             spike_s: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "duration_s", 0.15, 0.001, 10.0).unwrap_or(0.15),
+            spike_force_share: num(&mut c, &e("handling_spikes"), "effects.handling_spikes", "force_share", 0.0, 0.0, 100.0).unwrap_or(0.0),
         };
         let rest_raised = flag(&mut c, &r.nuisance, "nuisance", "rest_raised", "use true (every trial starts raised, its size drawn) or false (sign and size drawn per trial)");
         let nu = Nuisance {

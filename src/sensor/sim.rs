@@ -157,6 +157,9 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
     } else {
         vec![]
     };
+    // handling spikes as presses of force: drawn from their own stream, so that every other draw
+    // is the same with them on or off
+    let presses = force_spikes(e, &events, &touches, seed);
     let nu = &p0.nuisance;
     let mut scaled = p0.clone();
     if nu.gain_jitter > 0.0 {
@@ -217,7 +220,7 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
             f_max = f_max.max(f_after);
             ev_i += 1;
         }
-        let f = force_of(load_now(cur_load, touches.get(ev_i), events.get(ev_i), tk));
+        let f = force_of(load_now(cur_load, touches.get(ev_i), events.get(ev_i), tk) + presses.iter().map(|pr| pr.at(tk)).sum::<f64>());
         // a fading memory: the remembered peak follows the force up at once and fades toward it
         if e.hysteresis_memory_s > 0.0 {
             f_max = if k == 0 || f >= f_max { f } else { f + (f_max - f) * (-dt / e.hysteresis_memory_s).exp() };
@@ -299,6 +302,46 @@ fn creep(p: &SensorParams, (f0, f): (f64, f64), tk: f64, steps: &[TruthStep], (t
     } else {
         0.0
     }
+}
+
+/// A handling spike as a press of force (g): a sin² bump of `peak_g` over [`start_s`, `start_s` + `dur_s`].
+struct Press {
+    start_s: f64,
+    dur_s: f64,
+    peak_g: f64,
+}
+
+impl Press {
+    fn at(&self, tk: f64) -> f64 {
+        let u = (tk - self.start_s) / self.dur_s;
+        if (0.0..1.0).contains(&u) {
+            self.peak_g * (std::f64::consts::PI * u).sin().powi(2)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The presses of `effects.spike_force_share` (none when 0): at about half of the events, a press
+/// of 0.3–1.7 × the share of the weight changed, 0.03–0.15 s long, starting within the event's
+/// touch (its last `d` seconds before the landing) or at the landing without one.
+fn force_spikes(e: &crate::params::sensor::Effects, events: &[(f64, f64, &str, usize)], touches: &[(f64, f64)], seed: u64) -> Vec<Press> {
+    if e.spike_force_share <= 0.0 {
+        return vec![];
+    }
+    let mut rng = Rng::new(seed ^ 0x5EED_5B1C_E000_0001);
+    let mut before = 0.0;
+    let mut out = Vec::new();
+    for (j, ev) in events.iter().enumerate() {
+        let delta = (ev.1 - before).abs();
+        before = ev.1;
+        let (on, size, dur, at) = (rng.uniform() < 0.5, 0.3 + 1.4 * rng.uniform(), 0.03 + 0.12 * rng.uniform(), rng.uniform());
+        if on {
+            let d = touches.get(j).map_or(0.0, |t| t.0);
+            out.push(Press { start_s: ev.0 - d + at * (d - dur).max(0.0), dur_s: dur, peak_g: e.spike_force_share * size * delta });
+        }
+    }
+    out
 }
 
 /// Handling spikes at `tk`: a half sine of each event's sign around its landing.
