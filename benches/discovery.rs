@@ -80,7 +80,10 @@ fn effect_rms(s0: &SensorParams, (p, pre): (&ProtocolParams, f64), e: E, m: f64,
 fn magnitude_for(s0: &SensorParams, p: (&ProtocolParams, f64), e: E, target: f64, top: f64) -> f64 {
     let (mut lo, mut hi) = (1e-7f64, match e {
         E::Sat => top,
-        E::SpikesInForce => 100.0,
+        // a press's RMS is not monotone in its force: the sensor's τ grows with the force (τ0 +
+        // τ per N · F), so a harder press is followed more slowly; the search stays below the
+        // press with the largest RMS (its RMS is then the row's, when the target is beyond it)
+        E::SpikesInForce => [0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 300.0].into_iter().max_by(|a, b| effect_rms(s0, p, e, *a, top).total_cmp(&effect_rms(s0, p, e, *b, top))).unwrap(),
         _ => 1.0,
     });
     for _ in 0..50 {
@@ -167,8 +170,8 @@ const B_FORMS_40_HYST_G: &str = "the same (40 g) with family B's hysteresis: in 
 const B_FORMS_200_HYST_G: &str = "the same (200 g) with family B's hysteresis: in the conductance, a 60 s memory";
 const B_FORMS_40_SECOND_G: &str = "family B's forms with the second relaxation of the conductance, 40 g steps";
 const B_FORMS_200_SECOND_G: &str = "family B's forms with the second relaxation of the conductance, 200 g steps";
-const B_FORMS_40_FORCE_SPIKES: &str = "family B's forms with handling spikes as presses of force within the touch, 40 g steps";
-const B_FORMS_200_FORCE_SPIKES: &str = "family B's forms with handling spikes as presses of force within the touch, 200 g steps";
+const B_FORMS_40_FORCE_SPIKES: &str = "family B's forms with handling spikes as presses of force within the touch (at most 0.18σ), 40 g steps";
+const B_FORMS_200_FORCE_SPIKES: &str = "family B's forms with handling spikes as presses of force within the touch (at most 0.13σ), 200 g steps";
 const RAILS_BY_RMS: [&str; 14] = [
     RAIL_BY_RMS_40,
     RAIL_BY_RMS_200,
@@ -501,6 +504,9 @@ fn main() {
             // family B's form of handling spikes: presses of force
             let e = if e == E::Spikes && [B_FORMS_40_FORCE_SPIKES, B_FORMS_200_FORCE_SPIKES].contains(&label) { E::SpikesInForce } else { e };
             let m = magnitude_for(&sv, (&pv, pre), e, k_sigma * sv.noise_v, topv);
+            if std::env::var("TIPFORGE_DISCOVERY_VERBOSE").is_ok() {
+                eprintln!("{label}: {} magnitude {m:.4e} (effect RMS {:.4e} V)", e.name(), effect_rms(&sv, (&pv, pre), e, m, topv));
+            }
             let mut s = sv.clone();
             e.set(&mut s, m, topv);
             let mut hit = 0;

@@ -302,10 +302,10 @@ pub(super) fn removal_units(trials: &[Trial]) -> Vec<(usize, usize)> {
 }
 
 /// The paired z by which `after` predicts the held-out units `keys` better than `before` (0 with
-/// fewer than three of them).
+/// fewer than three of them that both scored), paired by unit.
 fn z_on_units(before: &Score, after: &Score, keys: &[(usize, usize)]) -> f64 {
-    let (b, a) = (units_on(before, keys), units_on(after, keys));
-    if b.len() < 3 || b.len() != a.len() {
+    let (b, a) = units_on(before, after, keys);
+    if b.len() < 3 {
         return 0.0;
     }
     paired_z(&b, &a)

@@ -142,7 +142,7 @@ pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]
     if only.is_empty() {
         return paired_z(&before.units, &after.units);
     }
-    let (b, a) = (units_on(before, only), units_on(after, only));
+    let (b, a) = units_on(before, after, only);
     let halves = !b.is_empty() && b.len() == a.len() && b.iter().zip(&a).all(|(x, y)| *x > 0.0 && *y <= 0.5 * x);
     let z = if b.len() < 3 { 0.0 } else { paired_z(&b, &a) };
     if halves && !rank_can_reach(b.len(), passing) {
@@ -152,9 +152,17 @@ pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]
     }
 }
 
-/// A score's held-out units (squared errors) whose (trial, segment) is among `only`, in its order.
-pub(super) fn units_on(s: &Score, only: &[(usize, usize)]) -> Vec<f64> {
-    s.unit_keys.iter().zip(&s.units).filter(|(k, _)| only.contains(k)).map(|(_, v)| *v).collect()
+/// Two scores' held-out units (squared errors) whose (trial, segment) is among `only`, paired by
+/// that key (in `before`'s order; a key only one of them scored is left out): two models may not
+/// list their units in the same order, nor score the same ones.
+pub(super) fn units_on(before: &Score, after: &Score, only: &[(usize, usize)]) -> (Vec<f64>, Vec<f64>) {
+    before
+        .unit_keys
+        .iter()
+        .zip(&before.units)
+        .filter(|(k, _)| only.contains(k))
+        .filter_map(|(k, b)| after.unit_keys.iter().position(|x| x == k).map(|j| (*b, after.units[j])))
+        .unzip()
 }
 
 /// Whether effect `e`'s fitted term in the model `c` (solution `x`) has its physics' sign: creep
@@ -185,6 +193,17 @@ pub(super) fn confidence(dbic: f64, gain: f64) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Units are paired by their (trial, segment), not by their place in the lists: a model that
+    /// lists its units in another order, or scored one more, is compared unit by unit.
+    #[test]
+    fn units_are_paired_by_their_keys() {
+        let sc = |keys: &[(usize, usize)], units: &[f64]| Score { unit_keys: keys.to_vec(), units: units.to_vec(), unit_n: vec![1; keys.len()], ..Default::default() };
+        let before = sc(&[(0, 1), (0, 2), (1, 1)], &[1.0, 2.0, 3.0]);
+        let after = sc(&[(1, 1), (9, 9), (0, 2), (0, 1)], &[30.0, 99.0, 20.0, 10.0]);
+        assert_eq!(units_on(&before, &after, &[(0, 1), (1, 1), (0, 2)]), (vec![1.0, 2.0, 3.0], vec![10.0, 20.0, 30.0]));
+        assert_eq!(units_on(&before, &after, &[(0, 2), (5, 5)]), (vec![2.0], vec![20.0]));
+    }
 
     /// A hysteresis mirrored (the unloading branch pushed away from the peak's level by what a 1 %
     /// hysteresis pulls it toward it, on the same noise) fits a negative fraction and is not a

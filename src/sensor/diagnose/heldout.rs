@@ -4,7 +4,7 @@
 
 use super::*;
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct Score {
     pub rmse: f64,
     pub heldout_rmse: f64,

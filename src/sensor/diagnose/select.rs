@@ -237,7 +237,9 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
     // (and one effect that stands in for two with the same evidence takes both their places)
     let actx = Ctx { d, trials, hat: &hat, clip, clip_steps, tau2_scale };
     let passes = 2 * findings.len() + 1;
-    let mut settled_once = false;
+    // each of the two rules decides once (the other's τ2 or form, fitted in its place, may move
+    // with the swap), and one deciding leaves the other its turn
+    let (mut settled_once, mut differ_once) = (false, false);
     for pass in 0..=passes {
         let alts = alternatives::alternatives(&cur, &cur_score, &actx);
         let swap = alts.iter().filter_map(|(e, _, b)| b.as_ref().map(|b| (*e, b))).max_by(|a, b| a.1.z.total_cmp(&b.1.z));
@@ -246,12 +248,16 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         // (once: the other's τ2, fitted in its place, may move with the swap)
         // and a hysteresis or a drift, or creep: what the holds where their physics differ show
         // (the virgin loading branch; the holds after removals), once, as the above
-        let settled = if swap.is_none() && merged.is_none() && !settled_once {
-            alternatives::settled(&cur, &alts, &actx).or_else(|| alternatives::where_they_differ(&cur, &cur_score, &alts, &actx))
+        let (by_holds, by_differ) = if swap.is_none() && merged.is_none() {
+            let h = if settled_once { None } else { alternatives::settled(&cur, &alts, &actx) };
+            let w = if h.is_some() || differ_once { None } else { alternatives::where_they_differ(&cur, &cur_score, &alts, &actx) };
+            (h, w)
         } else {
-            None
+            (None, None)
         };
-        settled_once |= settled.is_some();
+        settled_once |= by_holds.is_some();
+        differ_once |= by_differ.is_some();
+        let settled = by_holds.or(by_differ);
         let change = match (swap, &merged, &settled) {
             (Some((named, b)), _, _) => Some((vec![named], b)),
             (None, Some((two, b)), _) => Some((two.to_vec(), b)),
