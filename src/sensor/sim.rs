@@ -467,6 +467,36 @@ pub(crate) mod tests {
         assert_ne!(a.response, c.response);
     }
 
+    /// Handling spikes as presses of force (`effects.handling_spikes.force_share`): the noise-free
+    /// signal rises above the one without them only within a touch before some landings (a press
+    /// raises the force; the sensor follows it at first order, so the rise outlasts the press by a
+    /// few τ), about half of the events carry one, and every other draw is unchanged (the recording
+    /// away from the presses is the same sample for sample).
+    #[test]
+    fn a_press_of_force_rises_within_the_touch_at_some_events_and_changes_nothing_else() {
+        let (mut s, mut p) = defaults();
+        p.touch_s = 0.5;
+        p.press_fraction = 0.1;
+        let (_, plain) = simulate(&s, &p, 20.0, None, 11);
+        s.effects.spike_force_share = 2.0;
+        let (_, with) = simulate(&s, &p, 20.0, None, 11);
+        let dt = 0.01;
+        let mut pressed = 0;
+        for st in &plain.steps {
+            // the touch starts up to 1.5 × touch_s before the landing; the press's response fades within a few τ
+            let near = |k: usize| (st.t_land_s - 0.75 - 1e-9..st.t_land_s + 10.0 * st.tau_s.max(0.6)).contains(&(k as f64 * dt));
+            let lift = (0..plain.clean_v.len()).filter(|&k| near(k)).map(|k| with.clean_v[k] - plain.clean_v[k]).fold(0.0, f64::max);
+            pressed += usize::from(lift > 1e-3);
+        }
+        let n = plain.steps.len();
+        assert!((2..n - 1).contains(&pressed), "{pressed} of {n} events pressed");
+        let near_any = |k: usize| plain.steps.iter().any(|st| (st.t_land_s - 0.75 - 1e-9..st.t_land_s + 10.0 * st.tau_s.max(0.6)).contains(&(k as f64 * dt)));
+        let away = (0..plain.clean_v.len()).filter(|&k| !near_any(k)).map(|k| (with.clean_v[k] - plain.clean_v[k]).abs()).fold(0.0, f64::max);
+        assert!(away < 1e-6, "away from the presses the signals differ by {away} V");
+        let below = plain.clean_v.iter().zip(&with.clean_v).map(|(a, b)| a - b).fold(0.0, f64::max);
+        assert!(below < 1e-9, "a press never lowers the response ({below} V)");
+    }
+
     #[test]
     fn first_order_truth_matches_the_papers_magnitudes() {
         let (s, p) = defaults();
