@@ -27,7 +27,9 @@ pub(super) fn rejected(b: &Built, clean: &Score, recs: &[Recording]) -> bool {
 /// The raw noise around a window: the larger of the robust σ of the samples in the
 /// `preprocess::HANDLING_WINDOW_S` before it and after it (a sensor's noise may grow with its
 /// resistance tenfold between two levels: a recording's one σ would make the noisy level's
-/// excursions look large).
+/// excursions look large), and never below the ADC's own rounding noise (one step over √12) when
+/// the recording is in volts with a known ADC: a quiet level whose samples sit on one count has a
+/// robust σ of 0, and any one-count excursion would stand infinitely many σ off.
 fn local_noise(rec: &Recording, w: &crate::sensor::preprocess::SpikeWindow) -> f64 {
     let span = crate::sensor::preprocess::HANDLING_WINDOW_S;
     // (the samples' times rise: each side is a slice, found by bisection)
@@ -36,10 +38,12 @@ fn local_noise(rec: &Recording, w: &crate::sensor::preprocess::SpikeWindow) -> f
         let v = &rec.response[at(from)..at(to).max(at(from))];
         (v.len() >= 10).then(|| crate::sensor::preprocess::noise_sigma(v))
     };
-    match (side(w.start_s - span, w.start_s), side(w.end_s + 1e-9, w.end_s + span)) {
+    let around = match (side(w.start_s - span, w.start_s), side(w.end_s + 1e-9, w.end_s + span)) {
         (None, None) => crate::sensor::preprocess::noise_sigma(&rec.response),
         (a, b) => a.unwrap_or(0.0).max(b.unwrap_or(0.0)),
-    }
+    };
+    let rounding = if rec.unit == "V" { rec.meta.adc_step_v().map_or(0.0, |q| q / 12f64.sqrt()) } else { 0.0 };
+    around.max(rounding)
 }
 
 #[cfg(test)]
@@ -52,6 +56,24 @@ mod tests {
     /// spikes ties with the baseline's held-out RMSE (it rises, by under 3 %), so a rule that
     /// rejects any rise would call them misfit. The largest excursion is many times the raw noise:
     /// they are spikes, and the diagnosis names them.
+    /// A quiet level whose samples all sit on one ADC count has a robust σ of 0: the noise around a
+    /// window there is the ADC's rounding noise (one step over √12), so a one-count excursion stands
+    /// √12 ≈ 3.5 σ off, under `handling_spikes::MIN_Z`, not infinitely many.
+    #[test]
+    fn the_noise_around_a_window_on_one_count_is_the_adcs_rounding() {
+        let (_, p) = crate::sensor::sim::tests::defaults();
+        let (mut rec, _) = crate::sensor::sim::simulate(&crate::sensor::sim::tests::defaults().0, &p, 20.0, None, 3);
+        let q = rec.meta.adc_step_v().expect("the simulator writes its ADC");
+        rec.response.iter_mut().for_each(|v| *v = 100.0 * q);
+        let w = crate::sensor::preprocess::SpikeWindow { start_s: 30.0, end_s: 30.1, peak: q };
+        let sigma = local_noise(&rec, &w);
+        assert!((sigma - q / 12f64.sqrt()).abs() < 1e-12 * q, "{sigma} V for an ADC step of {q} V");
+        assert!(w.peak / sigma < catalogue::handling_spikes::MIN_Z);
+        // in another unit the ADC's step says nothing of the noise
+        rec.unit = "ohm";
+        assert_eq!(local_noise(&rec, &w), 0.0);
+    }
+
     #[test]
     fn a_held_out_tie_is_decided_by_the_spikes_size() {
         let seed = 95_040;
