@@ -78,14 +78,18 @@ fn effect_rms(s0: &SensorParams, (p, pre): (&ProtocolParams, f64), e: E, m: f64,
 
 /// The magnitude that gives a target effect RMS (bisection in log magnitude).
 fn magnitude_for(s0: &SensorParams, p: (&ProtocolParams, f64), e: E, target: f64, top: f64) -> f64 {
-    let (mut lo, mut hi) = (1e-7f64, match e {
-        E::Sat => top,
-        // a press's RMS is not monotone in its force: the sensor's τ grows with the force (τ0 +
-        // τ per N · F), so a harder press is followed more slowly; the search stays below the
-        // press with the largest RMS (its RMS is then the row's, when the target is beyond it)
-        E::SpikesInForce => [0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 300.0].into_iter().max_by(|a, b| effect_rms(s0, p, e, *a, top).total_cmp(&effect_rms(s0, p, e, *b, top))).unwrap(),
-        _ => 1.0,
-    });
+    let (mut lo, mut hi) = (
+        1e-7f64,
+        match e {
+            E::Sat => top,
+            // a press's RMS is not monotone in its force: the sensor's τ grows with the force (τ0 +
+            // τ per N · F), so a harder press is followed more slowly; the search stays below the
+            // press with the largest RMS (its RMS is then the row's, when the target is beyond it)
+            // (the grid ends at the largest share a sensor file takes)
+            E::SpikesInForce => [0.3, 1.0, 3.0, 10.0, 30.0, 100.0].map(|m| (m, effect_rms(s0, p, e, m, top))).into_iter().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap().0,
+            _ => 1.0,
+        },
+    );
     for _ in 0..50 {
         let mid = (lo * hi).sqrt();
         if effect_rms(s0, p, e, mid, top) < target {

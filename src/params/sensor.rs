@@ -67,8 +67,10 @@ pub struct Effects {
     pub spike_s: f64,
     /// Handling spikes as presses of force (family B's form; 0 = off): at about half of the
     /// placements and removals, a sin² press of about this many times the weight changed (each
-    /// drawn 0.3–1.7 × it), 0.03–0.15 s long, somewhere within the hand's touch, seen through the
-    /// sensor's response (its conductance law and first-order relaxation), not added to the output.
+    /// drawn 0.3–1.7 × it), 0.03–0.15 s long (no longer than the touch), within the hand's touch
+    /// (from the landing without one), seen through the sensor's response (its conductance law and
+    /// first-order relaxation), not added to the output. In addition to `spike_v`'s spikes;
+    /// `spike_s` does not apply to them.
     pub spike_force_share: f64,
 }
 

@@ -143,7 +143,7 @@ pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]
         return paired_z(&before.units, &after.units);
     }
     let (b, a) = units_on(before, after, only);
-    let halves = !b.is_empty() && b.len() == a.len() && b.iter().zip(&a).all(|(x, y)| *x > 0.0 && *y <= 0.5 * x);
+    let halves = !b.is_empty() && b.iter().zip(&a).all(|(x, y)| *x > 0.0 && *y <= 0.5 * x);
     let z = if b.len() < 3 { 0.0 } else { paired_z(&b, &a) };
     if halves && !rank_can_reach(b.len(), passing) {
         z.max(passing)

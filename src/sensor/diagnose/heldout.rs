@@ -4,7 +4,8 @@
 
 use super::*;
 
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Serialize)]
+#[cfg_attr(test, derive(Default))]
 pub struct Score {
     pub rmse: f64,
     pub heldout_rmse: f64,

@@ -237,8 +237,7 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
     // (and one effect that stands in for two with the same evidence takes both their places)
     let actx = Ctx { d, trials, hat: &hat, clip, clip_steps, tau2_scale };
     let passes = 2 * findings.len() + 1;
-    // each of the two rules decides once (the other's τ2 or form, fitted in its place, may move
-    // with the swap), and one deciding leaves the other its turn
+    // each of the two rules below decides once; one deciding leaves the other its turn
     let (mut settled_once, mut differ_once) = (false, false);
     for pass in 0..=passes {
         let alts = alternatives::alternatives(&cur, &cur_score, &actx);
