@@ -266,7 +266,7 @@ fn load_now(cur_load: f64, touch: Option<&(f64, f64)>, next: Option<&(f64, f64, 
         let u = (tk - (ev.0 - d)) / d;
         if (0.0..1.0).contains(&u) {
             let delta = ev.1 - cur_load;
-            return cur_load + delta * u * u * (3.0 - 2.0 * u) + press * delta.abs() * (std::f64::consts::PI * u).sin().powi(2);
+            return cur_load + delta * u * u * (3.0 - 2.0 * u) + press * delta.abs() * bump(u);
         }
     }
     cur_load
@@ -318,12 +318,16 @@ struct Press {
 
 impl Press {
     fn at(&self, tk: f64) -> f64 {
-        let u = (tk - self.start_s) / self.dur_s;
-        if (0.0..1.0).contains(&u) {
-            self.peak_g * (std::f64::consts::PI * u).sin().powi(2)
-        } else {
-            0.0
-        }
+        self.peak_g * bump((tk - self.start_s) / self.dur_s)
+    }
+}
+
+/// A sin² bump over [0, 1) at `u` (0 outside): the shape of a hand's press.
+fn bump(u: f64) -> f64 {
+    if (0.0..1.0).contains(&u) {
+        (std::f64::consts::PI * u).sin().powi(2)
+    } else {
+        0.0
     }
 }
 
@@ -502,13 +506,10 @@ pub(crate) mod tests {
         for (q, st) in plain.steps.iter().enumerate() {
             let end = plain.steps.get(q + 1).map_or(f64::INFINITY, |x| x.t_land_s - lead);
             let span: Vec<usize> = (0..diff.len()).filter(|&k| (st.t_land_s - lead..end).contains(&t(k))).collect();
-            match span.iter().find(|&&k| diff[k] > 1e-12) {
-                Some(&k) => {
-                    assert!(t(k) < st.t_land_s, "step {q}: the press starts at {} s, after the landing at {} s", t(k), st.t_land_s);
-                    assert!(diff[span[0]] <= 1e-12, "step {q}: the previous press had not died out");
-                    pressed += 1;
-                }
-                None => {}
+            if let Some(&k) = span.iter().find(|&&k| diff[k] > 1e-12) {
+                assert!(t(k) < st.t_land_s, "step {q}: the press starts at {} s, after the landing at {} s", t(k), st.t_land_s);
+                assert!(diff[span[0]] <= 1e-12, "step {q}: the previous press had not died out");
+                pressed += 1;
             }
         }
         let n = plain.steps.len();
@@ -550,7 +551,7 @@ pub(crate) mod tests {
         let (_, in_v) = simulate(&s, &p, 0.0, None, 5);
         s.effects.creep_in_conductance = true;
         let (_, in_g) = simulate(&s, &p, 0.0, None, 5);
-        let top = in_v.steps.iter().filter(|x| x.phase == "loading").last().unwrap();
+        let top = in_v.steps.iter().filter(|x| x.phase == "loading").next_back().unwrap();
         let k = ((top.t_land_s + p.top_hold_s - 0.5) * s.circuit.sample_rate_hz) as usize;
         let (dv, dg) = (in_v.clean_v[k] - plain.clean_v[k], in_g.clean_v[k] - plain.clean_v[k]);
         let x = s.circuit.r_m_ohm * s.conductance(top.force_after_n);

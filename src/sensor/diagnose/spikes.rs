@@ -13,7 +13,7 @@ use super::*;
 pub(super) fn rejected(b: &Built, clean: &Score, recs: &[Recording]) -> bool {
     let rise = clean.heldout_rmse / b.base.heldout_rmse.max(1e-300) - 1.0;
     // (a NaN is no evidence against the detectors)
-    if !(rise > 0.0) {
+    if rise.is_nan() || rise <= 0.0 {
         return false;
     }
     if rise > gate::MIN_ROBUST_GAIN {
