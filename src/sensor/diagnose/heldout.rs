@@ -26,7 +26,16 @@ pub struct Score {
     /// not each held in two steps), else 0.
     #[serde(skip)]
     pub blocks: usize,
+    /// Held-out squared error per block of [`WITHIN_BLOCK_S`] inside each unit of a held-out trial
+    /// ((trial, segment, block)), for a test within the trials (`gate::within_trials_z`); empty for
+    /// one recording.
+    #[serde(skip)]
+    pub within: Vec<((usize, usize, u64), f64)>,
 }
+
+/// The length of the blocks a held-out trial's units are cut into for a test within the trials: a
+/// few first-order time constants, so that the white noise of neighbouring blocks is independent.
+pub const WITHIN_BLOCK_S: f64 = 2.0;
 
 impl Score {
     /// The share by which this model's held-out RMSE is lower than `before`'s.
@@ -149,6 +158,7 @@ struct Held {
     sse: f64,
     n: usize,
     units: std::collections::BTreeMap<(usize, usize), f64>,
+    within: std::collections::BTreeMap<(usize, usize, u64), f64>,
 }
 
 impl Held {
@@ -156,6 +166,13 @@ impl Held {
         self.sse += e * e;
         self.n += 1;
         *self.units.entry(unit).or_default() += e * e;
+    }
+
+    /// A held-out trial's sample at `t_s`: its unit's error and its block's.
+    fn add_at(&mut self, unit: (usize, usize), t_s: f64, e: f64) {
+        self.add(unit, e);
+        let block = (t_s.max(0.0) / WITHIN_BLOCK_S) as u64;
+        *self.within.entry((unit.0, unit.1, block)).or_default() += e * e;
     }
 }
 
@@ -215,6 +232,7 @@ pub(super) fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config
             unit_keys,
             unit_n,
             blocks,
+            within: held.within.into_iter().collect(),
         },
         x,
     ))
@@ -243,7 +261,7 @@ fn leave_trials_out(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, fold:
                     }
                 }
                 let e = tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf);
-                held.add((k, seg_of(tr, tr.t[j])), e);
+                held.add_at((k, seg_of(tr, tr.t[j])), tr.t[j], e);
             }
         }
     }
