@@ -551,7 +551,7 @@ pub(crate) mod tests {
         let (_, in_v) = simulate(&s, &p, 0.0, None, 5);
         s.effects.creep_in_conductance = true;
         let (_, in_g) = simulate(&s, &p, 0.0, None, 5);
-        let top = in_v.steps.iter().filter(|x| x.phase == "loading").next_back().unwrap();
+        let top = in_v.steps.iter().rfind(|x| x.phase == "loading").unwrap();
         let k = ((top.t_land_s + p.top_hold_s - 0.5) * s.circuit.sample_rate_hz) as usize;
         let (dv, dg) = (in_v.clean_v[k] - plain.clean_v[k], in_g.clean_v[k] - plain.clean_v[k]);
         let x = s.circuit.r_m_ohm * s.conductance(top.force_after_n);

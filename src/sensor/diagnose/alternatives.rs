@@ -108,8 +108,8 @@ pub(super) fn alternatives(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Vec<(E
             let c = nuisance::with_rest(&wo, tau);
             if let Some((s, x)) = nuisance::rest_allowed(ctx.d, ctx.trials, tau).then(|| score(ctx.d, ctx.trials, &c, ctx.hat)).flatten() {
                 // it must explain the residual itself, as every alternative does
-                let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
-                let z_sep = paired_z(&s.units, &cur_score.units);
+                let explains = s.heldout_rmse < s_wo.heldout_rmse && z_over(&s_wo, &s) >= MIN_Z;
+                let z_sep = z_over(&s, cur_score);
                 // per trial it predicts clearly better (a nuisance's own rule): not a drift of the
                 // read-out but each trial's rest state
                 if explains {
@@ -172,8 +172,8 @@ pub(super) fn merged(cur: &Config, cur_score: &Score, ctx: &Ctx) -> Option<([Eff
             let pair_has = |e: &Effect| cur.effects[i] == *e || cur.effects[j] == *e;
             for &e in CATALOGUE.iter().filter(|e| physics(e) && (!cur.effects.contains(e) || (**e == Effect::Creep && pair_has(e)))) {
                 let Some((c, s, x)) = in_place(e, &wo, ctx) else { continue };
-                let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
-                let z_two_over_one = paired_z(&s.units, &cur_score.units);
+                let explains = s.heldout_rmse < s_wo.heldout_rmse && z_over(&s_wo, &s) >= MIN_Z;
+                let z_two_over_one = z_over(&s, cur_score);
                 if explains && z_two_over_one < Z_SEPARATE && s.heldout_rmse <= cur_score.heldout_rmse && best.as_ref().is_none_or(|b| s.heldout_rmse < b.1.score.heldout_rmse) {
                     best = Some(([cur.effects[i], cur.effects[j]], Better { effect: e, cfg: c, score: s, x, z: -z_two_over_one }));
                 }

@@ -22,6 +22,16 @@ pub(super) fn paired_z(before: &[f64], after: &[f64]) -> f64 {
     }
 }
 
+/// [`paired_z`] of `after` over `before`, their held-out units paired by (trial, segment): two
+/// models may not score the same units, nor list them in the same order.
+pub(super) fn z_over(before: &Score, after: &Score) -> f64 {
+    if before.unit_keys == after.unit_keys {
+        return paired_z(&before.units, &after.units);
+    }
+    let (b, a) = units_on(before, after, &before.unit_keys);
+    paired_z(&b, &a)
+}
+
 /// The least held-out RMSE gain a model `c` must bring over the one it replaces: the conductance's
 /// creep through the read-out, a form chosen after the fact (among up to eight subsets of the slow
 /// terms in `through::replace_slow`, or in a named term's place in honest naming), needs the
@@ -106,7 +116,7 @@ pub(super) fn change_z(clip: bool, before: &Score, after: &Score, clip_units: &[
     if clip {
         let groups: Vec<&Vec<(usize, usize)>> = clip_units.iter().filter(|g| !g.is_empty()).collect();
         if groups.is_empty() {
-            return paired_z(&before.units, &after.units);
+            return z_over(before, after);
         }
         // a group where every unit halves its error passes at the level the groups are judged at
         let passing = if groups.len() > 1 { TWO_GROUP_Z } else { MIN_Z };
@@ -119,7 +129,7 @@ pub(super) fn change_z(clip: bool, before: &Score, after: &Score, clip_units: &[
             best
         }
     } else {
-        paired_z(&before.units, &after.units)
+        z_over(before, after)
     }
 }
 
@@ -142,7 +152,7 @@ fn rank_can_reach(n: usize, z: f64) -> bool {
 /// samples, and its unit as a whole by little).
 pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)], passing: f64) -> f64 {
     if only.is_empty() {
-        return paired_z(&before.units, &after.units);
+        return z_over(before, after);
     }
     let (b, a) = units_on(before, after, only);
     let halves = !b.is_empty() && b.iter().zip(&a).all(|(x, y)| *x > 0.0 && *y <= 0.5 * x);
@@ -239,6 +249,10 @@ mod tests {
         let after = sc(&[(1, 1), (9, 9), (0, 2), (0, 1)], &[30.0, 99.0, 20.0, 10.0]);
         assert_eq!(units_on(&before, &after, &[(0, 1), (1, 1), (0, 2)]), (vec![1.0, 2.0, 3.0], vec![10.0, 20.0, 30.0]));
         assert_eq!(units_on(&before, &after, &[(0, 2), (5, 5)]), (vec![2.0], vec![20.0]));
+        // the paired z over every unit pairs them by key too: the same as over the lists aligned
+        let aligned = sc(&[(0, 1), (0, 2), (1, 1)], &[10.0, 20.0, 30.0]);
+        assert_eq!(z_over(&before, &after), paired_z(&before.units, &aligned.units));
+        assert_ne!(z_over(&before, &after), paired_z(&before.units, &after.units[..3]));
     }
 
     /// A rail's rises into it, one per trial (family A's tuning seed 26 890 under family B's forms:
@@ -250,15 +264,17 @@ mod tests {
     fn a_rail_passes_on_the_blocks_inside_every_trial_not_one_trials() {
         // 20 blocks per trial; `f(k, j)` is block j's share of trial k's error after
         let score = |f: &dyn Fn(usize, usize) -> f64, before: &[f64]| {
-            let within: Vec<((usize, usize, u64), f64)> =
-                (0..3).flat_map(|k| (0..20).map(move |j| (k, j))).map(|(k, j)| ((k, 4, j as u64), before[k] / 20.0 * f(k, j) * (1.0 + 0.3 * ((7 * j + k) % 5) as f64 / 5.0))).collect();
+            let within: Vec<((usize, usize, u64), f64)> = (0..3)
+                .flat_map(|k| (0..20).map(move |j| (k, j)))
+                .map(|(k, j)| ((k, 4, j as u64), before[k] / 20.0 * f(k, j) * (1.0 + 0.3 * ((7 * j + k) % 5) as f64 / 5.0)))
+                .collect();
             let units: Vec<f64> = (0..3).map(|k| within.iter().filter(|((t, _, _), _)| *t == k).map(|(_, e)| e).sum()).collect();
             Score { unit_keys: (0..3).map(|k| (k, 4)).collect(), unit_n: vec![2000; 3], units, within, ..Default::default() }
         };
         let before_units = [0.130, 0.262, 0.030];
         let keys = [(0, 4), (1, 4), (2, 4)];
         let before = score(&|_, _| 1.0, &before_units);
-        let rail = |k: usize, j: usize| [0.42, 0.10, 0.90][k] * if j % 4 == 0 { 1.05 } else { 1.0 };
+        let rail = |k: usize, j: usize| [0.42, 0.10, 0.90][k] * if j.is_multiple_of(4) { 1.05 } else { 1.0 };
         let after = score(&rail, &before_units);
         assert!(paired_z(&before.units, &after.units) < MIN_Z);
         let z = within_trials_z(&before, &after, &keys);
@@ -266,7 +282,18 @@ mod tests {
         assert!(paired_z_on(&before, &after, &keys, MIN_Z) >= MIN_Z);
         // one trial alone: its 20 blocks all better (the most a rank test of 20 can say, z 3.92),
         // the others' blocks up and down
-        let one = score(&|k, j| if k == 1 { 0.2 } else if (j + k) % 2 == 0 { 0.97 } else { 1.03 }, &before_units);
+        let one = score(
+            &|k, j| {
+                if k == 1 {
+                    0.2
+                } else if (j + k) % 2 == 0 {
+                    0.97
+                } else {
+                    1.03
+                }
+            },
+            &before_units,
+        );
         let z1 = within_trials_z(&before, &one, &keys);
         assert!(z1 < MIN_Z, "{z1}");
         // every block 1 % better: consistent, but under the least gain

@@ -30,7 +30,7 @@ pub(super) fn try_gains(d: &Design, trials: &[Trial], cur: &Config, cur_score: &
     let mut c = cur.clone();
     c.gains = true;
     let (s, x) = score(d, trials, &c, hat)?;
-    let z = paired_z(&cur_score.units, &s.units);
+    let z = z_over(cur_score, &s);
     let dbic = s.bic - cur_score.bic;
     if !(s.heldout_rmse < cur_score.heldout_rmse && z >= MIN_Z && dbic <= MIN_DBIC) {
         return None;
@@ -114,7 +114,7 @@ pub(super) fn beats_its_shared_form(d: &Design, trials: &[Trial], c: &Config, s:
     shared.drift_tau = Some(tau);
     let Some((sh, _)) = score(d, trials, &shared, hat) else { return true };
     let gain = (sh.heldout_rmse - s.heldout_rmse) / sh.heldout_rmse.max(1e-300);
-    gain >= MIN_ROBUST_GAIN && paired_z(&sh.units, &s.units) >= MIN_Z
+    gain >= MIN_ROBUST_GAIN && z_over(&sh, s) >= MIN_Z
 }
 
 /// Student's t that a one-sided test at 1 % needs, for 1 to 9 degrees of freedom (the normal's
@@ -164,20 +164,19 @@ fn t_over_spread(a: &[f64]) -> f64 {
 pub(super) fn in_its_place((wo, s_wo): (&Config, &Score), cur_score: &Score, ctx: &Ctx) -> Option<alternatives::Better> {
     let c = candidate(Effect::RestRelaxation, wo, ctx)?;
     let (s, x) = score(ctx.d, ctx.trials, &c, ctx.hat)?;
-    let explains = s.heldout_rmse < s_wo.heldout_rmse && paired_z(&s_wo.units, &s.units) >= MIN_Z;
+    let explains = s.heldout_rmse < s_wo.heldout_rmse && z_over(s_wo, &s) >= MIN_Z;
     if !explains {
         return None;
     }
     let beside = drift_beside_rests(wo, ctx).and_then(|cd| {
         let (sd, xd) = score(ctx.d, ctx.trials, &cd, ctx.hat)?;
         // the forward step's rule: its least gain, z and ΔBIC, and the physics' sign
-        let passes =
-            sd.gain_over(&s) > MIN_TERM_GAIN && paired_z(&s.units, &sd.units) >= MIN_Z && sd.bic - s.bic <= MIN_DBIC && of_its_sign(ctx.d, &cd, &xd, Effect::BaselineDrift);
+        let passes = sd.gain_over(&s) > MIN_TERM_GAIN && z_over(&s, &sd) >= MIN_Z && sd.bic - s.bic <= MIN_DBIC && of_its_sign(ctx.d, &cd, &xd, Effect::BaselineDrift);
         passes.then_some((cd, sd, xd))
     });
     Some(match beside {
-        Some((cd, sd, xd)) => alternatives::Better { effect: Effect::BaselineDrift, z: -paired_z(&sd.units, &cur_score.units), cfg: cd, score: sd, x: xd },
-        None => alternatives::Better { effect: Effect::RestRelaxation, z: -paired_z(&s.units, &cur_score.units), cfg: c, score: s, x },
+        Some((cd, sd, xd)) => alternatives::Better { effect: Effect::BaselineDrift, z: -z_over(&sd, cur_score), cfg: cd, score: sd, x: xd },
+        None => alternatives::Better { effect: Effect::RestRelaxation, z: -z_over(&s, cur_score), cfg: c, score: s, x },
     })
 }
 

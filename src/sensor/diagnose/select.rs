@@ -195,7 +195,7 @@ fn backward(
             let z = change_z(*e == Effect::Saturation, &s_wo, cur_score, &clip_steps.units);
             let dbic = cur_score.bic - s_wo.bic;
             let passes = z >= MIN_Z && dbic <= MIN_DBIC;
-            let others_stand = c.effects.is_empty() || (paired_z(&floor.units, &s_wo.units) >= MIN_Z && s_wo.bic - floor.bic <= MIN_DBIC && s_wo.heldout_rmse < floor.heldout_rmse);
+            let others_stand = c.effects.is_empty() || (z_over(floor, &s_wo) >= MIN_Z && s_wo.bic - floor.bic <= MIN_DBIC && s_wo.heldout_rmse < floor.heldout_rmse);
             if !passes && others_stand && worst.as_ref().is_none_or(|w| z < w.4) {
                 worst = Some((idx, c, s_wo, x_wo, z));
             }

@@ -127,7 +127,7 @@ pub(super) fn try_spectrum(d: &Design, trials: &[Trial], cur: &Config, cur_score
     let cur_judged = if long { score(d, &judged, cur, hat)?.0 } else { cur_score.clone() };
     let (s, x) = score(d, &judged, &c, hat)?;
     let gain = (cur_judged.heldout_rmse - s.heldout_rmse) / cur_judged.heldout_rmse.max(1e-300);
-    let z = paired_z(&cur_judged.units, &s.units);
+    let z = z_over(&cur_judged, &s);
     // from here on (the refits, the final model) the penalty chosen on all the data (judged)
     if c.relax.is_some() && gain > 0.0 && z >= MIN_Z {
         let units = unit_normals(d, &judged, &all_rows(&judged), &c, hat);

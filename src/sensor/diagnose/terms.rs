@@ -228,7 +228,7 @@ pub(super) fn refine_memory(d: &Design, trials: &[Trial], cfg: &Config, hat: &Ha
     }
     let (now, _) = score(d, trials, cfg, hat)?;
     let (then, _) = score(d, trials, &c, hat)?;
-    (then.heldout_rmse < now.heldout_rmse && paired_z(&now.units, &then.units) >= Z_SEPARATE).then_some(c)
+    (then.heldout_rmse < now.heldout_rmse && z_over(&now, &then) >= Z_SEPARATE).then_some(c)
 }
 
 /// The conductance's creep through the read-out taken exactly at its fitted size: the column's
@@ -481,7 +481,7 @@ mod tests {
         assert!((c.tau2 / 8.0).ln().abs() < TAU2_STEP.ln(), "τ2 {} for 8 s", c.tau2);
         let (before, _) = score(&b.d, &b.trials, &cur, &b.hat).unwrap();
         let (after, _) = score(&b.d, &b.trials, &c, &b.hat).unwrap();
-        let z = paired_z(&before.units, &after.units);
+        let z = z_over(&before, &after);
         assert!(after.gain_over(&before) > MIN_TERM_GAIN && z >= MIN_Z, "held out {} → {} (z {z})", before.heldout_rmse, after.heldout_rmse);
     }
 }

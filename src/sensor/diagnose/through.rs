@@ -69,7 +69,7 @@ pub(super) fn replace_slow(
 ) -> bool {
     let Some((c, s, x, gone)) = best_in_place(d, trials, hat, cur) else { return false };
     let gain = s.gain_over(cur_score);
-    let z = paired_z(&cur_score.units, &s.units);
+    let z = z_over(cur_score, &s);
     let accepted = gain > least_gain(&c) && z >= MIN_Z;
     let step = decisions.last().map(|x| x.step + 1).unwrap_or(0);
     decisions.push(Decision { step, stage: "through", candidate: Effect::Creep.name(), heldout_rmse: s.heldout_rmse, gain, z, delta_bic: s.bic - cur_score.bic, accepted });
