@@ -24,11 +24,15 @@ pub(super) fn paired_z(before: &[f64], after: &[f64]) -> f64 {
 
 /// [`paired_z`] of `after` over `before`, their held-out units paired by (trial, segment): two
 /// models may not score the same units, nor list them in the same order.
+/// Two models scored on different units are not compared (0), as unequal lists were not.
 pub(super) fn z_over(before: &Score, after: &Score) -> f64 {
     if before.unit_keys == after.unit_keys {
         return paired_z(&before.units, &after.units);
     }
     let (b, a) = units_on(before, after, &before.unit_keys);
+    if b.len() != before.units.len() || a.len() != after.units.len() {
+        return 0.0;
+    }
     paired_z(&b, &a)
 }
 
@@ -162,7 +166,7 @@ pub(super) fn paired_z_on(before: &Score, after: &Score, only: &[(usize, usize)]
     } else if halves {
         z.max(passing)
     } else {
-        z.max(within_trials_z(before, after, only))
+        within_trials_z(before, after, only).map_or(z, |w| z.max(w))
     }
 }
 
@@ -172,30 +176,34 @@ const WITHIN_LEAST_BLOCKS: usize = 6;
 /// The held-out evidence inside the trials, for a group of units too small for any test over units
 /// (a rail's rises into it: one per trial): each held-out trial's units cut into blocks of
 /// [`heldout::WITHIN_BLOCK_S`], the blocks' signed-rank z per trial (a trial with fewer than
-/// [`WITHIN_LEAST_BLOCKS`] counts 0), combined over the trials by Stouffer's sum over √(trials) —
-/// so one trial's blocks alone, however consistent, cannot pass: a term shared by the trials must
-/// help in most of them. 0 unless the group's held-out error falls by [`MIN_ROBUST_GAIN`] in RMS.
-pub(super) fn within_trials_z(before: &Score, after: &Score, only: &[(usize, usize)]) -> f64 {
+/// [`WITHIN_LEAST_BLOCKS`] counts 0), combined over the trials by Stouffer's sum over √(trials).
+/// The blocks of one trial are not replicates: the two models' difference there is one curve,
+/// fitted once without that trial, with the trial's own offset shared by every block. A trial's z
+/// measures how consistently the change helps over its time, and grows with the hold's length (20
+/// blocks: at most 3.92; 36: 5.23). So each trial's z counts at most [`MIN_Z`] (one passing
+/// trial's worth), and the group must span two trials or more: one trial alone, however
+/// consistent and long, gives at most MIN_Z/√2 — a term shared by the trials must help in most of
+/// them. None (no evidence inside the trials) without blocks (one recording), with the group in
+/// one trial, or unless the group's held-out error falls by [`MIN_ROBUST_GAIN`] in RMS.
+pub(super) fn within_trials_z(before: &Score, after: &Score, only: &[(usize, usize)]) -> Option<f64> {
     let (b, a) = units_on(before, after, only);
     let (sb, sa) = (b.iter().sum::<f64>(), a.iter().sum::<f64>());
-    if sb <= 0.0 || 1.0 - (sa / sb).sqrt() < MIN_ROBUST_GAIN {
-        return 0.0;
-    }
     let trials: std::collections::BTreeSet<usize> = only.iter().map(|u| u.0).collect();
-    let z_of = |k: usize| {
-        let (bk, ak): (Vec<f64>, Vec<f64>) = before
-            .within
-            .iter()
-            .filter(|((t, s, _), _)| *t == k && only.contains(&(*t, *s)))
-            .filter_map(|(key, e)| after.within.iter().find(|(x, _)| x == key).map(|(_, f)| (*e, *f)))
-            .unzip();
+    if before.within.is_empty() || trials.len() < 2 || sb <= 0.0 || 1.0 - (sa / sb).sqrt() < MIN_ROBUST_GAIN {
+        return None;
+    }
+    // `within` is sorted by its key (it comes from an ordered map)
+    let after_block = |key: &(usize, usize, u64)| after.within.binary_search_by(|(x, _)| x.cmp(key)).ok().map(|j| after.within[j].1);
+    let trial_z = |k: usize| {
+        let (bk, ak): (Vec<f64>, Vec<f64>) =
+            before.within.iter().filter(|((t, s, _), _)| *t == k && only.contains(&(*t, *s))).filter_map(|(key, e)| after_block(key).map(|f| (*e, f))).unzip();
         if bk.len() < WITHIN_LEAST_BLOCKS {
             0.0
         } else {
-            signed_rank_z(&bk, &ak)
+            signed_rank_z(&bk, &ak).min(MIN_Z)
         }
     };
-    trials.iter().map(|&k| z_of(k)).sum::<f64>() / (trials.len().max(1) as f64).sqrt()
+    Some(trials.iter().map(|&k| trial_z(k)).sum::<f64>() / (trials.len() as f64).sqrt())
 }
 
 /// Two scores' held-out units (squared errors) whose (trial, segment) is among `only`, paired by
@@ -249,39 +257,53 @@ mod tests {
         let after = sc(&[(1, 1), (9, 9), (0, 2), (0, 1)], &[30.0, 99.0, 20.0, 10.0]);
         assert_eq!(units_on(&before, &after, &[(0, 1), (1, 1), (0, 2)]), (vec![1.0, 2.0, 3.0], vec![10.0, 20.0, 30.0]));
         assert_eq!(units_on(&before, &after, &[(0, 2), (5, 5)]), (vec![2.0], vec![20.0]));
-        // the paired z over every unit pairs them by key too: the same as over the lists aligned
-        let aligned = sc(&[(0, 1), (0, 2), (1, 1)], &[10.0, 20.0, 30.0]);
-        assert_eq!(z_over(&before, &after), paired_z(&before.units, &aligned.units));
-        assert_ne!(z_over(&before, &after), paired_z(&before.units, &after.units[..3]));
+        // the paired z over every unit pairs them by key too: the same as over the lists aligned;
+        // two models scored on different units are not compared
+        let (aligned, shuffled) = (sc(&[(0, 1), (0, 2), (1, 1)], &[10.0, 20.0, 30.0]), sc(&[(1, 1), (0, 2), (0, 1)], &[30.0, 20.0, 10.0]));
+        assert_eq!(z_over(&before, &shuffled), paired_z(&before.units, &aligned.units));
+        assert_ne!(z_over(&before, &shuffled), paired_z(&before.units, &shuffled.units));
+        assert_eq!(z_over(&before, &after), 0.0);
     }
 
     /// A rail's rises into it, one per trial (family A's tuning seed 26 890 under family B's forms:
     /// 0.130 → 0.055, 0.262 → 0.026 and 0.030 → 0.027): no test over three units can pass, and the
     /// third does not halve; inside the trials, 20 blocks each, every trial's blocks improve, and
-    /// the trials' combined z passes. One trial whose blocks all improve while the others' do not
-    /// move cannot pass alone, nor can a change under 3 % however consistent.
+    /// the trials' combined z passes — as their sum over √3, each capped at MIN_Z (a mean would not
+    /// exceed MIN_Z). Blocks of units outside the group, and a block the other model did not
+    /// score, are left out. One trial whose blocks all improve, however many, while the others'
+    /// go up and down by 3 %, cannot pass alone; nor can a group within one trial, a change under
+    /// 3 % however consistent, or scores without blocks (one recording's).
     #[test]
     fn a_rail_passes_on_the_blocks_inside_every_trial_not_one_trials() {
-        // 20 blocks per trial; `f(k, j)` is block j's share of trial k's error after
-        let score = |f: &dyn Fn(usize, usize) -> f64, before: &[f64]| {
-            let within: Vec<((usize, usize, u64), f64)> = (0..3)
-                .flat_map(|k| (0..20).map(move |j| (k, j)))
-                .map(|(k, j)| ((k, 4, j as u64), before[k] / 20.0 * f(k, j) * (1.0 + 0.3 * ((7 * j + k) % 5) as f64 / 5.0)))
+        // `n` blocks per trial in the group's unit (segment 4) and in segment 5, outside it; `f(k, j)`
+        // is block j's share of trial k's error after (segment 5: 3 × worse)
+        let score = |f: &dyn Fn(usize, usize) -> f64, before: &[f64], n: usize| {
+            let mut within: Vec<((usize, usize, u64), f64)> = (0..3)
+                .flat_map(|k| (0..n).map(move |j| (k, j)))
+                .flat_map(|(k, j)| {
+                    let e = before[k] / n as f64 * (1.0 + 0.3 * ((7 * j + k) % 5) as f64 / 5.0);
+                    [((k, 4, j as u64), e * f(k, j)), ((k, 5, j as u64), e * if f(k, j) < 1.0 { 3.0 } else { 1.0 })]
+                })
                 .collect();
-            let units: Vec<f64> = (0..3).map(|k| within.iter().filter(|((t, _, _), _)| *t == k).map(|(_, e)| e).sum()).collect();
-            Score { unit_keys: (0..3).map(|k| (k, 4)).collect(), unit_n: vec![2000; 3], units, within, ..Default::default() }
+            within.sort_by(|a, b| a.0.cmp(&b.0));
+            let unit = |k: usize, s: usize| within.iter().filter(|((t, q, _), _)| *t == k && *q == s).map(|(_, e)| e).sum::<f64>();
+            let (unit_keys, units): (Vec<(usize, usize)>, Vec<f64>) = (0..3).flat_map(|k| [((k, 4), unit(k, 4)), ((k, 5), unit(k, 5))]).unzip();
+            Score { unit_n: vec![2000; units.len()], unit_keys, units, within, ..Default::default() }
         };
         let before_units = [0.130, 0.262, 0.030];
         let keys = [(0, 4), (1, 4), (2, 4)];
-        let before = score(&|_, _| 1.0, &before_units);
-        let rail = |k: usize, j: usize| [0.42, 0.10, 0.90][k] * if j.is_multiple_of(4) { 1.05 } else { 1.0 };
-        let after = score(&rail, &before_units);
-        assert!(paired_z(&before.units, &after.units) < MIN_Z);
-        let z = within_trials_z(&before, &after, &keys);
-        assert!(z >= MIN_Z, "{z}");
+        let before = score(&|_, _| 1.0, &before_units, 20);
+        let rail = |k: usize, j: usize| [0.42, 0.10, 0.90][k] * if j % 4 == 0 { 1.05 } else { 1.0 };
+        let mut after = score(&rail, &before_units, 20);
+        // a block the rail's model did not score
+        after.within.retain(|(key, _)| *key != (0, 4, 7));
+        let (b, a) = units_on(&before, &after, &keys);
+        assert!(paired_z(&b, &a) < MIN_Z);
+        let z = within_trials_z(&before, &after, &keys).expect("evidence inside the trials");
+        assert!(z > 4.0, "{z}");
         assert!(paired_z_on(&before, &after, &keys, MIN_Z) >= MIN_Z);
-        // one trial alone: its 20 blocks all better (the most a rank test of 20 can say, z 3.92),
-        // the others' blocks up and down
+        // one trial alone: all its blocks better (40 of them: a rank z of 5.5 uncapped), the others'
+        // up and down
         let one = score(
             &|k, j| {
                 if k == 1 {
@@ -293,15 +315,19 @@ mod tests {
                 }
             },
             &before_units,
+            40,
         );
-        let z1 = within_trials_z(&before, &one, &keys);
+        let before40 = score(&|_, _| 1.0, &before_units, 40);
+        let z1 = within_trials_z(&before40, &one, &keys).expect("evidence inside the trials");
         assert!(z1 < MIN_Z, "{z1}");
+        // the group within one trial
+        assert_eq!(within_trials_z(&before, &after, &[(1, 4)]), None);
         // every block 1 % better: consistent, but under the least gain
-        let tiny = score(&|_, _| 0.98, &before_units);
-        assert_eq!(within_trials_z(&before, &tiny, &keys), 0.0);
+        let tiny = score(&|_, _| 0.98, &before_units, 20);
+        assert_eq!(within_trials_z(&before, &tiny, &keys), None);
         // without blocks (one recording's score), nothing
         let bare = |sc: &Score| Score { within: vec![], ..sc.clone() };
-        assert_eq!(within_trials_z(&bare(&before), &bare(&after), &keys), 0.0);
+        assert_eq!(within_trials_z(&bare(&before), &bare(&after), &keys), None);
     }
 
     /// A hysteresis mirrored (the unloading branch pushed away from the peak's level by what a 1 %

@@ -34,7 +34,8 @@ pub struct Score {
 }
 
 /// The length of the blocks a held-out trial's units are cut into for a test within the trials: a
-/// few first-order time constants, so that the white noise of neighbouring blocks is independent.
+/// few first-order time constants and four correlation times of family A's AR(1) noise (ρ 0.98 at
+/// 100 Hz), so that the noise of neighbouring blocks is nearly independent.
 pub const WITHIN_BLOCK_S: f64 = 2.0;
 
 impl Score {
@@ -168,10 +169,11 @@ impl Held {
         *self.units.entry(unit).or_default() += e * e;
     }
 
-    /// A held-out trial's sample at `t_s`: its unit's error and its block's.
-    fn add_at(&mut self, unit: (usize, usize), t_s: f64, e: f64) {
+    /// A held-out trial's sample at `t_s` in the unit that starts at `start_s`: its unit's error
+    /// and its block's (blocks counted from the unit's start).
+    fn add_at(&mut self, unit: (usize, usize), (start_s, t_s): (f64, f64), e: f64) {
         self.add(unit, e);
-        let block = (t_s.max(0.0) / WITHIN_BLOCK_S) as u64;
+        let block = ((t_s - start_s).max(0.0) / WITHIN_BLOCK_S) as u64;
         *self.within.entry((unit.0, unit.1, block)).or_default() += e * e;
     }
 }
@@ -261,7 +263,9 @@ fn leave_trials_out(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, fold:
                     }
                 }
                 let e = tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf);
-                held.add_at((k, seg_of(tr, tr.t[j])), tr.t[j], e);
+                let seg = seg_of(tr, tr.t[j]);
+                let start_s = if seg == 0 { t_first - 0.2 } else { tr.segs[seg - 1].t0 };
+                held.add_at((k, seg), (start_s, tr.t[j]), e);
             }
         }
     }
