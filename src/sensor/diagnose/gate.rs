@@ -23,8 +23,8 @@ pub(super) fn paired_z(before: &[f64], after: &[f64]) -> f64 {
 }
 
 /// [`paired_z`] of `after` over `before`, their held-out units paired by (trial, segment): two
-/// models may not score the same units, nor list them in the same order.
-/// Two models scored on different units are not compared (0), as unequal lists were not.
+/// models may list the same units in another order. Two models scored on different units are not
+/// compared (0), as unequal lists were not.
 pub(super) fn z_over(before: &Score, after: &Score) -> f64 {
     if before.unit_keys == after.unit_keys {
         return paired_z(&before.units, &after.units);
@@ -183,8 +183,8 @@ const WITHIN_LEAST_BLOCKS: usize = 6;
 /// blocks: at most 3.92; 36: 5.23). So each trial's z counts at most [`MIN_Z`] (one passing
 /// trial's worth), and the group must span two trials or more: one trial alone, however
 /// consistent and long, gives at most MIN_Z/√2 — a term shared by the trials must help in most of
-/// them. None (no evidence inside the trials) without blocks (one recording), with the group in
-/// one trial, or unless the group's held-out error falls by [`MIN_ROBUST_GAIN`] in RMS.
+/// them. None (no evidence inside the trials) when there are no blocks (one recording), when the
+/// group lies in one trial, or when its held-out RMS falls by less than [`MIN_ROBUST_GAIN`].
 pub(super) fn within_trials_z(before: &Score, after: &Score, only: &[(usize, usize)]) -> Option<f64> {
     let (b, a) = units_on(before, after, only);
     let (sb, sa) = (b.iter().sum::<f64>(), a.iter().sum::<f64>());
@@ -249,7 +249,9 @@ mod tests {
     use super::*;
 
     /// Units are paired by their (trial, segment), not by their place in the lists: a model that
-    /// lists its units in another order, or scored one more, is compared unit by unit.
+    /// lists its units in another order, or scored one more, is compared unit by unit over a
+    /// group of them (`units_on`); over every unit (`z_over`), the same units in another order are,
+    /// and two models scored on different units are not compared.
     #[test]
     fn units_are_paired_by_their_keys() {
         let sc = |keys: &[(usize, usize)], units: &[f64]| Score { unit_keys: keys.to_vec(), units: units.to_vec(), unit_n: vec![1; keys.len()], ..Default::default() };
@@ -267,10 +269,10 @@ mod tests {
 
     /// A rail's rises into it, one per trial (family A's tuning seed 26 890 under family B's forms:
     /// 0.130 → 0.055, 0.262 → 0.026 and 0.030 → 0.027): no test over three units can pass, and the
-    /// third does not halve; inside the trials, 20 blocks each, every trial's blocks improve, and
-    /// the trials' combined z passes — as their sum over √3, each capped at MIN_Z (a mean would not
-    /// exceed MIN_Z). Blocks of units outside the group, and a block the other model did not
-    /// score, are left out. One trial whose blocks all improve, however many, while the others'
+    /// third does not halve; inside the trials, 20 blocks each (one of trial 0's not scored by the
+    /// rail's model, and left out), every trial's blocks improve, and the trials' combined z
+    /// passes — as their sum over √3, each capped at MIN_Z (a mean would not exceed MIN_Z). Blocks
+    /// of units outside the group (3 × worse) are left out. One trial whose blocks all improve, however many, while the others'
     /// go up and down by 3 %, cannot pass alone; nor can a group within one trial, a change under
     /// 3 % however consistent, or scores without blocks (one recording's).
     #[test]

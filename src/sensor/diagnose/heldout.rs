@@ -27,8 +27,9 @@ pub struct Score {
     #[serde(skip)]
     pub blocks: usize,
     /// Held-out squared error per block of [`WITHIN_BLOCK_S`] inside each unit of a held-out trial
-    /// ((trial, segment, block)), for a test within the trials (`gate::within_trials_z`); empty for
-    /// one recording.
+    /// ((trial, segment, block), blocks counted from the unit's start), sorted by that key (looked
+    /// up by binary search), for a test within the trials (`gate::within_trials_z`); empty for one
+    /// recording.
     #[serde(skip)]
     pub within: Vec<((usize, usize, u64), f64)>,
 }
@@ -257,13 +258,13 @@ fn leave_trials_out(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, fold:
         let own = (d.n_gains(cfg) + d.n_rests(cfg) > 0).then(|| trial_terms_halves(d, k, tr, &xk, cfg, hat));
         for j in 0..tr.t.len() {
             if tr.t[j] >= t_first - 0.2 && !at_jump(tr, tr.t[j]) {
+                let seg = seg_of(tr, tr.t[j]);
                 if let Some((cols, vals)) = &own {
-                    for (c, v) in cols.iter().zip(&vals[seg_of(tr, tr.t[j]) % 2]) {
+                    for (c, v) in cols.iter().zip(&vals[seg % 2]) {
                         xk[*c] = *v;
                     }
                 }
                 let e = tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf);
-                let seg = seg_of(tr, tr.t[j]);
                 let start_s = if seg == 0 { t_first - 0.2 } else { tr.segs[seg - 1].t0 };
                 held.add_at((k, seg), (start_s, tr.t[j]), e);
             }
