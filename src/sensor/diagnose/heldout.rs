@@ -34,6 +34,10 @@ pub struct Score {
     pub within: Vec<((usize, usize, u64), f64)>,
 }
 
+/// How long before a held-out trial's first onset its samples are scored (segment 0); the samples
+/// before that give the trial its own offset.
+const SCORED_BEFORE_ONSET_S: f64 = 0.2;
+
 /// The length of the blocks a held-out trial's units are cut into for a test within the trials: a
 /// few first-order time constants and four correlation times of family A's AR(1) noise (ρ 0.98 at
 /// 100 Hz), so that the noise of neighbouring blocks is nearly independent.
@@ -87,7 +91,7 @@ pub(super) fn trial_terms_halves(d: &Design, k: usize, tr: &Trial, xk: &[f64], c
     let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
     for j in 0..tr.t.len() {
         let seg = tr.segs.iter().filter(|s| s.t0 <= tr.t[j]).count();
-        if (seg == 0 && tr.t[j] >= t_first - 0.2) || at_jump(tr, tr.t[j]) || !usable(k, tr, j, cfg) {
+        if (seg == 0 && tr.t[j] >= t_first - SCORED_BEFORE_ONSET_S) || at_jump(tr, tr.t[j]) || !usable(k, tr, j, cfg) {
             continue;
         }
         let e = tr.v[j] - predict(d, k, tr, tr.t[j], &x, cfg, hat, &mut buf);
@@ -253,11 +257,11 @@ fn leave_trials_out(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, fold:
         let tr = &trials[k];
         let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
         xk[k] = 0.0;
-        let pre: Vec<f64> = (0..tr.t.len()).filter(|&j| tr.t[j] < t_first - 0.2).map(|j| tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf)).collect();
+        let pre: Vec<f64> = (0..tr.t.len()).filter(|&j| tr.t[j] < t_first - SCORED_BEFORE_ONSET_S).map(|j| tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf)).collect();
         xk[k] = if pre.is_empty() { 0.0 } else { pre.iter().sum::<f64>() / pre.len() as f64 };
         let own = (d.n_gains(cfg) + d.n_rests(cfg) > 0).then(|| trial_terms_halves(d, k, tr, &xk, cfg, hat));
         for j in 0..tr.t.len() {
-            if tr.t[j] >= t_first - 0.2 && !at_jump(tr, tr.t[j]) {
+            if tr.t[j] >= t_first - SCORED_BEFORE_ONSET_S && !at_jump(tr, tr.t[j]) {
                 let seg = seg_of(tr, tr.t[j]);
                 if let Some((cols, vals)) = &own {
                     for (c, v) in cols.iter().zip(&vals[seg % 2]) {
@@ -265,7 +269,7 @@ fn leave_trials_out(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, fold:
                     }
                 }
                 let e = tr.v[j] - predict(d, k, tr, tr.t[j], &xk, cfg, hat, &mut buf);
-                let start_s = if seg == 0 { t_first - 0.2 } else { tr.segs[seg - 1].t0 };
+                let start_s = if seg == 0 { t_first - SCORED_BEFORE_ONSET_S } else { tr.segs[seg - 1].t0 };
                 held.add_at((k, seg), (start_s, tr.t[j]), e);
             }
         }
@@ -327,7 +331,7 @@ fn unit_counts(trials: &[Trial], blocks: usize) -> std::collections::BTreeMap<(u
     if trials.len() >= 2 {
         for (k, tr) in trials.iter().enumerate() {
             let t_first = tr.segs.first().map(|s| s.t0).unwrap_or(f64::INFINITY);
-            for &t in tr.t.iter().filter(|&&t| t >= t_first - 0.2) {
+            for &t in tr.t.iter().filter(|&&t| t >= t_first - SCORED_BEFORE_ONSET_S) {
                 *counts.entry((k, seg_of(tr, t))).or_default() += 1;
             }
         }

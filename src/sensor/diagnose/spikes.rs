@@ -50,19 +50,13 @@ fn local_noise(rec: &Recording, w: &crate::sensor::preprocess::SpikeWindow) -> f
 mod tests {
     use super::*;
 
-    /// Family A's sensor as the discovery bench's rows with family B's forms have it (five times the
-    /// noise; the trials' gains, raised rests and AR noise; 40 g steps placed by hand with a touch and
-    /// a press; 40 s holds) and a 0.15 s spike of 0.3 V at every placement and removal: excluding the
-    /// spikes ties with the baseline's held-out RMSE (it rises, by under 3 %), so a rule that
-    /// rejects any rise would call them misfit. The largest excursion is many times the raw noise:
-    /// they are spikes, and the diagnosis names them.
     /// A quiet level whose samples all sit on one ADC count has a robust σ of 0: the noise around a
     /// window there is the ADC's rounding noise (one step over √12), so a one-count excursion stands
     /// √12 ≈ 3.5 σ off, under `handling_spikes::MIN_Z`, not infinitely many.
     #[test]
     fn the_noise_around_a_window_on_one_count_is_the_adcs_rounding() {
-        let (_, p) = crate::sensor::sim::tests::defaults();
-        let (mut rec, _) = crate::sensor::sim::simulate(&crate::sensor::sim::tests::defaults().0, &p, 20.0, None, 3);
+        let (s, p) = crate::sensor::sim::tests::defaults();
+        let (mut rec, _) = crate::sensor::sim::simulate(&s, &p, 20.0, None, 3);
         let q = rec.meta.adc_step_v().expect("the simulator writes its ADC");
         rec.response.iter_mut().for_each(|v| *v = 100.0 * q);
         let w = crate::sensor::preprocess::SpikeWindow { start_s: 30.0, end_s: 30.1, peak: q };
@@ -74,6 +68,12 @@ mod tests {
         assert_eq!(local_noise(&rec, &w), 0.0);
     }
 
+    /// Family A's sensor as the discovery bench's rows with family B's forms have it (five times the
+    /// noise; the trials' gains, raised rests and AR noise; 40 g steps placed by hand with a touch and
+    /// a press; 40 s holds) and a 0.15 s spike of 0.3 V at every placement and removal: excluding the
+    /// spikes ties with the baseline's held-out RMSE (it rises, by under 3 %), so a rule that
+    /// rejects any rise would call them misfit. The largest excursion is many times the raw noise:
+    /// they are spikes, and the diagnosis names them.
     #[test]
     fn a_held_out_tie_is_decided_by_the_spikes_size() {
         let seed = 95_040;
