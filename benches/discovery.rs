@@ -176,7 +176,9 @@ const B_FORMS_40_SECOND_G: &str = "family B's forms with the second relaxation o
 const B_FORMS_200_SECOND_G: &str = "family B's forms with the second relaxation of the conductance, 200 g steps";
 const B_FORMS_40_FORCE_SPIKES: &str = "family B's forms with handling spikes as presses of force within the touch (at most 0.18σ), 40 g steps";
 const B_FORMS_200_FORCE_SPIKES: &str = "family B's forms with handling spikes as presses of force within the touch (at most 0.13σ), 200 g steps";
-const RAILS_BY_RMS: [&str; 14] = [
+const B_FORMS_40_SECOND_40S: &str = "family B's forms with the second relaxation of the conductance, τ2 40 s, 40 g steps";
+const B_FORMS_40_SECOND_100S: &str = "family B's forms with the second relaxation of the conductance, τ2 100 s, 40 g steps";
+const RAILS_BY_RMS: [&str; 16] = [
     RAIL_BY_RMS_40,
     RAIL_BY_RMS_200,
     RAIL_BY_RMS_40_LAB,
@@ -191,6 +193,8 @@ const RAILS_BY_RMS: [&str; 14] = [
     B_FORMS_200_SECOND_G,
     B_FORMS_40_FORCE_SPIKES,
     B_FORMS_200_FORCE_SPIKES,
+    B_FORMS_40_SECOND_40S,
+    B_FORMS_40_SECOND_100S,
 ];
 /// The variation without a preload.
 const NO_PRELOAD: &str = "no preload: the zero-load level at the ADC's floor (0 V)";
@@ -480,6 +484,10 @@ fn main() {
         // half of the placements and removals, within the touch, through the sensor's response
         (B_FORMS_40_FORCE_SPIKES, b_forms(40.0)),
         (B_FORMS_200_FORCE_SPIKES, b_forms(200.0)),
+        // the same second relaxation with family B's slower τ2 (15–120 s; family A's is 8 s): as
+        // long as a hold and more than twice as long, where creep and a drift share its residual
+        (B_FORMS_40_SECOND_40S, b_forms_second_slow(40.0, 40.0)),
+        (B_FORMS_40_SECOND_100S, b_forms_second_slow(40.0, 100.0)),
     ];
     // TIPFORGE_DISCOVERY_VARIATION_SIGMA=3: the rows' effects at 3σ instead of 1σ (probes; a rail
     // whose height is not set by its RMS keeps its height)
@@ -641,6 +649,14 @@ fn b_forms_second_in_conductance(weight_g: f64) -> Box<dyn Fn(&mut SensorParams,
     Box::new(move |s, p| {
         b_forms(weight_g)(s, p);
         s.effects.second_in_conductance = true
+    })
+}
+
+/// [`b_forms_second_in_conductance`] with the second relaxation's τ2 at `tau2_s`.
+fn b_forms_second_slow(weight_g: f64, tau2_s: f64) -> Box<dyn Fn(&mut SensorParams, &mut ProtocolParams)> {
+    Box::new(move |s, p| {
+        b_forms_second_in_conductance(weight_g)(s, p);
+        s.effects.second_tau_s = tau2_s
     })
 }
 
