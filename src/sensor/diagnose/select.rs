@@ -243,13 +243,13 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         let alts = alternatives::alternatives(&cur, &cur_score, &actx);
         let swap = alts.iter().filter_map(|(e, _, b)| b.as_ref().map(|b| (*e, b))).max_by(|a, b| a.1.z.total_cmp(&b.1.z));
         let merged = if swap.is_none() { alternatives::merged(&cur, &cur_score, &actx) } else { None };
-        // creep or a second relaxation, which this recording cannot tell apart: what the holds show
-        // (once: the other's τ2, fitted in its place, may move with the swap)
-        // and a hysteresis or a drift, or creep: what the holds where their physics differ show
-        // (the virgin loading branch; the holds after removals), once, as the above
+        // a hysteresis or a drift, or creep (a second relaxation, or a hysteresis): what the holds
+        // where their physics differ show (the virgin loading branch; the holds after removals),
+        // once; then creep or a second relaxation, which this recording cannot tell apart: what
+        // the holds show (once: the other's τ2, fitted in its place, may move with the swap)
         let (by_holds, by_differ) = if swap.is_none() && merged.is_none() {
-            let h = if settled_once { None } else { alternatives::settled(&cur, &alts, &actx) };
-            let w = if h.is_some() || differ_once { None } else { alternatives::where_they_differ(&cur, &cur_score, &alts, &actx) };
+            let w = if differ_once { None } else { alternatives::where_they_differ(&cur, &cur_score, &alts, &actx) };
+            let h = if w.is_some() || settled_once { None } else { alternatives::settled(&cur, &alts, &actx) };
             (h, w)
         } else {
             (None, None)
