@@ -441,7 +441,8 @@ mod tests {
     }
 
     /// The name `where_they_differ` gives when `named` (its candidate on the baseline) has the other
-    /// of hysteresis and creep as its alternative, on `recs`, and its z; None: the name stays.
+    /// of hysteresis and creep as its alternative (creep for any other), on `recs`, and its z;
+    /// None: the name stays.
     fn loading_branch_pick(recs: &[Recording], named: Effect) -> Option<(Effect, f64)> {
         let b = fixture::built(recs);
         let steps = ClipSteps::of(&b.trials, None, false);
@@ -487,6 +488,33 @@ mod tests {
         for recs in [&creep, &hyst] {
             assert_eq!(loading_branch_pick(recs, Effect::Creep), None);
         }
+    }
+
+    /// A second relaxation or a hysteresis, named by the virgin loading branch (family A's
+    /// simulator, seeds 93 700–93 902): a hysteresis of the conductance whose memory fades in 60 s
+    /// (family B's form), taken as a second relaxation of every change, is renamed hysteresis (with
+    /// its memory fading), since its virgin loading holds do not relax; a second relaxation of the
+    /// response or of the conductance keeps its name, though no hysteresis is its alternative.
+    #[test]
+    fn a_second_relaxation_or_a_fading_hysteresis_is_named_by_the_virgin_loading_branch() {
+        let faded = fixture::recs_with(
+            93_700,
+            |s| {
+                (s.effects.hysteresis, s.effects.hysteresis_memory_s) = (0.17, 60.0);
+                s.effects.hysteresis_in_conductance = true;
+                s.noise_v *= 5.0
+            },
+            |p| (p.weights_g, p.hold_s, p.top_hold_s) = (vec![40.0; 5], 40.0, 40.0),
+        );
+        let second = fixture::recs(93_800, |s| (s.effects.second_fraction, s.effects.second_tau_s) = (0.05, 30.0));
+        let second_g = fixture::recs(93_900, |s| {
+            (s.effects.second_fraction, s.effects.second_tau_s) = (0.05, 30.0);
+            s.effects.second_in_conductance = true
+        });
+        let (e, z) = loading_branch_pick(&faded, Effect::SecondTimeConstant).expect("a fading hysteresis renamed");
+        assert_eq!(e, Effect::Hysteresis, "z {z}");
+        assert_eq!(loading_branch_pick(&second, Effect::SecondTimeConstant), None, "second relaxation of the response");
+        assert_eq!(loading_branch_pick(&second_g, Effect::SecondTimeConstant), None, "second relaxation of the conductance");
     }
 
     /// A drift or creep, named by the holds after the removals (family A's simulator, seeds
