@@ -244,8 +244,8 @@ pub(super) fn settled(cur: &Config, alts: &[(Effect, Vec<Alternative>, Option<Be
 }
 
 /// A hysteresis or a drift that this recording cannot tell from creep (creep its alternative), or a
-/// second relaxation of every change that it cannot tell from a hysteresis (a hysteresis its
-/// alternative): the name goes to what the holds where their physics differ show.
+/// second relaxation of every change set against a hysteresis (whether or not the hysteresis is
+/// its alternative): the name goes to what the holds where their physics differ show.
 /// - A hysteresis, permanent or with a fading memory, acts only below the highest load so far (the
 ///   unloading branch sits toward the peak's level); on a hold at a new highest load (the virgin
 ///   loading branch) it leaves the response alone, where creep goes on after every change.
@@ -254,15 +254,15 @@ pub(super) fn settled(cur: &Config, alts: &[(Effect, Vec<Alternative>, Option<Be
 ///
 /// - A second relaxation of every change (not one driven by its size, which has a share after
 ///   unloading alone) relaxes on the virgin loading branch too, where a hysteresis leaves the
-///   response alone. (With τ2 reaching three holds, a relaxation of 38 s took a 60 s fading
-///   hysteresis's name in 8 of 8 tuning cases of family A's row 27; the forward step offers the
-///   hysteresis with a permanent memory only.)
+///   response alone. (With τ2 reaching three holds, a slow relaxation of every change, 38 s on
+///   seed 38 110, took a 60 s fading hysteresis's name in 8 of 8 tuning cases of family A's row
+///   27; the forward step offers the hysteresis with a permanent memory only.)
 ///
 /// So where the other (creep; a hysteresis for a second relaxation), fitted in the named one's
 /// place, predicts those held-out holds better by a paired z of Z_SEPARATE, it takes the name. (Not the other way round: a creep named in its
 /// restarting form, on a creep of the conductance, predicts the virgin loading holds worse than a
 /// hysteresis does, by a paired z of 7.0; how well a creep fits them depends on its form.) The
-/// finding to rename and the model with creep in its place.
+/// finding to rename and the model with the other in its place.
 pub(super) fn where_they_differ(cur: &Config, cur_score: &Score, alts: &[(Effect, Vec<Alternative>, Option<Better>)], ctx: &Ctx) -> Option<(Effect, Better)> {
     // units are (trial, segment counted from 1 at the first onset) only with two trials or more
     // (one trial is scored by blocks of its holds, or by leaving out steps counted from 0)
