@@ -245,7 +245,8 @@ pub(super) fn settled(cur: &Config, alts: &[(Effect, Vec<Alternative>, Option<Be
 
 /// A hysteresis or a drift that this recording cannot tell from creep (creep its alternative), or a
 /// second relaxation of every change set against a hysteresis (whether or not the hysteresis is
-/// its alternative): the name goes to what the holds where their physics differ show.
+/// its alternative; not when the model has a hysteresis already): the name goes to what the holds
+/// where their physics differ show.
 /// - A hysteresis, permanent or with a fading memory, acts only below the highest load so far (the
 ///   unloading branch sits toward the peak's level); on a hold at a new highest load (the virgin
 ///   loading branch) it leaves the response alone, where creep goes on after every change.
@@ -273,7 +274,7 @@ pub(super) fn where_they_differ(cur: &Config, cur_score: &Score, alts: &[(Effect
         let (other, keys) = match named {
             Effect::Hysteresis => (Effect::Creep, virgin_loading_units(ctx.trials)),
             Effect::BaselineDrift => (Effect::Creep, removal_units(ctx.trials)),
-            Effect::SecondTimeConstant if cur.drive != Drive::Size => (Effect::Hysteresis, virgin_loading_units(ctx.trials)),
+            Effect::SecondTimeConstant if cur.drive != Drive::Size && !cur.effects.contains(&Effect::Hysteresis) => (Effect::Hysteresis, virgin_loading_units(ctx.trials)),
             _ => continue,
         };
         // (a hysteresis is tried against a second relaxation even when it is not the named one's
@@ -283,10 +284,10 @@ pub(super) fn where_they_differ(cur: &Config, cur_score: &Score, alts: &[(Effect
         let Some(idx) = cur.effects.iter().position(|e| e == named).filter(|_| in_list || *named == Effect::SecondTimeConstant) else { continue };
         let Some((c, s, x)) = in_place(other, &without(cur, idx), ctx) else { continue };
         // a hysteresis against a relaxation: with its memory fading when the data show it
-        let (c, s, x) = match (other == Effect::Hysteresis).then(|| terms::refine_memory(ctx.d, ctx.trials, &c, ctx.hat)).flatten() {
-            Some(f) => score(ctx.d, ctx.trials, &f, ctx.hat).map(|(s, x)| (f, s, x)).unwrap_or((c, s, x)),
-            None => (c, s, x),
-        };
+        // (and of its physics' sign, as `in_place` asks of the permanent one)
+        let fading = (other == Effect::Hysteresis).then(|| terms::refine_memory(ctx.d, ctx.trials, &c, ctx.hat)).flatten();
+        let fading = fading.and_then(|f| score(ctx.d, ctx.trials, &f, ctx.hat).map(|(s, x)| (f, s, x))).filter(|(f, _, x)| of_its_sign(ctx.d, f, x, other));
+        let (c, s, x) = fading.unwrap_or((c, s, x));
         let z = z_on_units(cur_score, &s, &keys);
         if z >= Z_SEPARATE {
             return Some((*named, Better { effect: other, cfg: c, score: s, x, z }));
@@ -511,6 +512,13 @@ mod tests {
             (s.effects.second_fraction, s.effects.second_tau_s) = (0.05, 30.0);
             s.effects.second_in_conductance = true
         });
+        // each taken as a relaxation of every change (the rule is for those), not of the change's size
+        for (name, recs) in [("faded", &faded), ("second", &second), ("second_g", &second_g)] {
+            let b = fixture::built(recs);
+            let steps = ClipSteps::of(&b.trials, None, false);
+            let c = candidate(Effect::SecondTimeConstant, &b.base_cfg, &fixture::ctx(&b, &steps, &b.hat)).unwrap();
+            assert_ne!(c.drive, Drive::Size, "{name}");
+        }
         let (e, z) = loading_branch_pick(&faded, Effect::SecondTimeConstant).expect("a fading hysteresis renamed");
         assert_eq!(e, Effect::Hysteresis, "z {z}");
         assert_eq!(loading_branch_pick(&second, Effect::SecondTimeConstant), None, "second relaxation of the response");
