@@ -195,13 +195,7 @@ fn in_place(e: Effect, wo: &Config, ctx: &Ctx) -> Option<(Config, Score, Vec<f64
     let c = candidate(e, wo, ctx)?;
     let forms = if e == Effect::Creep {
         let c = Config { creep: CreepForm::Restarting, ..c };
-        let sup = Config { creep: CreepForm::Superposed, ..c.clone() };
-        // the conductance creeping, seen through the read-out (when every trial's is known)
-        let through = terms::through_known(ctx.trials).then(|| Config { creep: CreepForm::Through { at: None }, ..c.clone() }).and_then(|c| {
-            let b = train_bic(ctx.d, ctx.trials, &c, ctx.hat)?.0;
-            Some(terms::through_exactly(ctx.d, ctx.trials, ctx.hat, (c, b)).0)
-        });
-        [c, sup].into_iter().chain(through).collect()
+        std::iter::once(c.clone()).chain(terms::carried_creep_forms(&c, ctx)).collect()
     } else {
         vec![c]
     };

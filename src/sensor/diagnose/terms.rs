@@ -41,9 +41,8 @@ pub(super) fn refine_tau2(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat)
     };
     // 10 steps shrink the bracket to 0.8 % of a grid step (0.3 % in τ2); never past the grid's
     // ends (refined again after every refit, τ2 would otherwise walk a step further each time)
-    let grid = tau2_grid(tau2_scale(trials), trials);
-    let grid = reach(cfg.drive, &grid);
-    let (lo, hi) = (grid[0].ln().min(cfg.tau2.ln()), grid[grid.len() - 1].ln().max(cfg.tau2.ln()));
+    let (lo, hi) = tau2_ends(tau2_scale(trials), trials, cfg.drive);
+    let (lo, hi) = (lo.ln().min(cfg.tau2.ln()), hi.ln().max(cfg.tau2.ln()));
     let br = crate::sensor::golden::golden(at, (cfg.tau2.ln() - TAU2_STEP.ln()).max(lo), (cfg.tau2.ln() + TAU2_STEP.ln()).min(hi), 10, 0.0);
     let (best, f_best) = br.best();
     let base = at(cfg.tau2.ln());
@@ -178,14 +177,19 @@ fn reach(drive: Drive, grid: &[f64]) -> &[f64] {
     }
 }
 
+/// The first and last τ2 (s) of the grid ([`tau2_grid`]) that `drive` reaches ([`reach`]).
+fn tau2_ends(tau2_scale: f64, trials: &[Trial], drive: Drive) -> (f64, f64) {
+    let grid = tau2_grid(tau2_scale, trials);
+    let g = reach(drive, &grid);
+    (g[0], g[g.len() - 1])
+}
+
 /// A second relaxation already in the model `c` (training BIC `b0`) whose form cannot change, its
 /// τ2 refitted with a term just added (a term left out biases it — drift lengthens τ2) by a local
 /// search in steps of the grid's ratio, within the grid's range.
 fn refit_tau2(ctx: &Ctx, mut c: Config, mut b0: f64) -> Config {
     let (d, trials, hat) = (ctx.d, ctx.trials, ctx.hat);
-    let grid = tau2_grid(ctx.tau2_scale, trials);
-    let grid = reach(c.drive, &grid);
-    let (lo, hi) = (grid[0], grid[grid.len() - 1]);
+    let (lo, hi) = tau2_ends(ctx.tau2_scale, trials, c.drive);
     loop {
         let mut moved = false;
         for f in [1.0 / TAU2_STEP, TAU2_STEP] {
@@ -245,14 +249,19 @@ fn creep_fits_as_well(c: &Config, b: f64, ctx: &Ctx) -> bool {
     let Some(idx) = c.effects.iter().position(|e| *e == Effect::SecondTimeConstant).filter(|_| !c.effects.contains(&Effect::Creep)) else { return false };
     let mut wo = without(c, idx);
     wo.effects.push(Effect::Creep);
-    let mut forms = vec![Config { creep: CreepForm::Superposed, ..wo.clone() }];
-    if through_known(ctx.trials) {
-        let th = Config { creep: CreepForm::Through { at: None }, ..wo };
-        if let Some((bt, _)) = train_bic(ctx.d, ctx.trials, &th, ctx.hat) {
-            forms.push(through_exactly(ctx.d, ctx.trials, ctx.hat, (th, bt)).0);
-        }
-    }
-    forms.iter().filter_map(|f| train_bic(ctx.d, ctx.trials, f, ctx.hat)).any(|(bf, _)| bf <= b)
+    carried_creep_forms(&wo, ctx).iter().filter_map(|f| train_bic(ctx.d, ctx.trials, f, ctx.hat)).any(|(bf, _)| bf <= b)
+}
+
+/// The model `c` (creep in it) with its creep in the forms that carry over between steps: superposed
+/// over the load history, and, when every trial's read-out is known, the conductance's creep
+/// superposed and seen through the read-out, taken exactly.
+pub(super) fn carried_creep_forms(c: &Config, ctx: &Ctx) -> Vec<Config> {
+    let sup = Config { creep: CreepForm::Superposed, ..c.clone() };
+    let through = through_known(ctx.trials).then(|| Config { creep: CreepForm::Through { at: None }, ..c.clone() }).and_then(|c| {
+        let b = train_bic(ctx.d, ctx.trials, &c, ctx.hat)?.0;
+        Some(through_exactly(ctx.d, ctx.trials, ctx.hat, (c, b)).0)
+    });
+    std::iter::once(sup).chain(through).collect()
 }
 
 /// The candidates `cands` of effect `e` with their training BIC (a second relaxation driven by the
