@@ -178,7 +178,9 @@ const B_FORMS_40_FORCE_SPIKES: &str = "family B's forms with handling spikes as 
 const B_FORMS_200_FORCE_SPIKES: &str = "family B's forms with handling spikes as presses of force within the touch (at most 0.13σ), 200 g steps";
 const B_FORMS_40_SECOND_40S: &str = "family B's forms with the second relaxation of the conductance, τ2 40 s, 40 g steps";
 const B_FORMS_40_SECOND_100S: &str = "family B's forms with the second relaxation of the conductance, τ2 100 s, 40 g steps";
-const RAILS_BY_RMS: [&str; 16] = [
+const B_FORMS_40_PRONY: &str = "family B's forms with creep as a Prony spectrum (6 terms, 2–3600 s, tilt 0.25), 40 g steps";
+const B_FORMS_200_PRONY: &str = "family B's forms with creep as a Prony spectrum (6 terms, 2–3600 s, tilt 0.25), 200 g steps";
+const RAILS_BY_RMS: [&str; 18] = [
     RAIL_BY_RMS_40,
     RAIL_BY_RMS_200,
     RAIL_BY_RMS_40_LAB,
@@ -195,6 +197,8 @@ const RAILS_BY_RMS: [&str; 16] = [
     B_FORMS_200_FORCE_SPIKES,
     B_FORMS_40_SECOND_40S,
     B_FORMS_40_SECOND_100S,
+    B_FORMS_40_PRONY,
+    B_FORMS_200_PRONY,
 ];
 /// The variation without a preload.
 const NO_PRELOAD: &str = "no preload: the zero-load level at the ADC's floor (0 V)";
@@ -488,6 +492,12 @@ fn main() {
         // long as a hold and more than twice as long, where creep and a drift share its residual
         (B_FORMS_40_SECOND_40S, b_forms_second_slow(40.0, 40.0)),
         (B_FORMS_40_SECOND_100S, b_forms_second_slow(40.0, 100.0)),
+        // family B's creep form (stop 58): a Prony spectrum of the conductance, every change
+        // driving six terms log-spaced over 2–3600 s whose weights rise gently toward the slow end
+        // (family B: flat in log τ to rising), superposed; it stops growing past an hour, where
+        // family A's log-time creep goes on
+        (B_FORMS_40_PRONY, b_forms_prony_creep(40.0)),
+        (B_FORMS_200_PRONY, b_forms_prony_creep(200.0)),
     ];
     // TIPFORGE_DISCOVERY_VARIATION_SIGMA=3: the rows' effects at 3σ instead of 1σ (probes; a rail
     // whose height is not set by its RMS keeps its height)
@@ -657,6 +667,15 @@ fn b_forms_second_slow(weight_g: f64, tau2_s: f64) -> Box<dyn Fn(&mut SensorPara
     Box::new(move |s, p| {
         b_forms_second_in_conductance(weight_g)(s, p);
         s.effects.second_tau_s = tau2_s
+    })
+}
+
+/// [`b_forms`] with family B's creep: a Prony spectrum of six terms over 2–3600 s (weights ∝
+/// (τ/2 s)^0.25), superposed and seen through the divider, instead of the log-time form.
+fn b_forms_prony_creep(weight_g: f64) -> Box<dyn Fn(&mut SensorParams, &mut ProtocolParams)> {
+    Box::new(move |s, p| {
+        b_forms(weight_g)(s, p);
+        (s.effects.creep_spectrum_terms, s.effects.creep_spectrum_min_s, s.effects.creep_spectrum_max_s, s.effects.creep_spectrum_tilt) = (6, 2.0, 3600.0, 0.25)
     })
 }
 

@@ -30,6 +30,17 @@ pub struct Effects {
     /// Creep of the sensor's conductance, seen through the read-out (a divider compresses it at
     /// its top and shows it in full at its bottom), instead of creep of the response itself.
     pub creep_in_conductance: bool,
+    /// Creep as a Prony spectrum (family B's form) when it has terms (0: the log-time form): with
+    /// `creep_superposed`, every change of level drives Σ_k w_k · (1 − e^(−t/τ_k)), with
+    /// `creep_spectrum_terms` time constants τ_k log-spaced from `creep_spectrum_min_s` to
+    /// `creep_spectrum_max_s` and weights w_k ∝ (τ_k/τ_min)^`creep_spectrum_tilt` (0: flat in log τ;
+    /// > 0: rising toward the slow end) scaled so that Σ w_k is the span in decades (at least one): a change's
+    /// creep then reaches `creep_per_decade` × the decades spanned, as a log-time creep over the
+    /// same span would, but stops growing past τ_max.
+    pub creep_spectrum_terms: usize,
+    pub creep_spectrum_min_s: f64,
+    pub creep_spectrum_max_s: f64,
+    pub creep_spectrum_tilt: f64,
     /// Fraction of (V_eq(F_max) − V_eq(F)) kept on the unloading branch; with
     /// `hysteresis_in_conductance`, the conductance gained per newton of the peak's force gap, in
     /// units of g_ref.
@@ -155,7 +166,8 @@ static RELAX: Schema = Schema { fields: || &["tau0_s", "tau_per_n_s"], tables: &
 static NOISE: Schema = Schema { fields: || &["sigma_v"], tables: &[] };
 static RIG: Schema = Schema { fields: || &["preload_g"], tables: &[] };
 static COVER: Schema = Schema { fields: || &["dome_stiffness_n_per_mm", "contact_diameter_mm", "relax_fraction", "tau_s"], tables: &[] };
-static CREEP: Schema = Schema { fields: || &["per_decade", "time_s", "superposed", "in_conductance"], tables: &[] };
+static CREEP: Schema =
+    Schema { fields: || &["per_decade", "time_s", "superposed", "in_conductance", "spectrum_terms", "spectrum_min_s", "spectrum_max_s", "spectrum_tilt"], tables: &[] };
 static HYST: Schema = Schema { fields: || &["fraction", "memory_s", "in_conductance"], tables: &[] };
 static SECOND: Schema = Schema { fields: || &["fraction", "tau_s", "in_conductance"], tables: &[] };
 static DRIFT: Schema = Schema { fields: || &["rate_v_per_s", "wander_v", "period_s", "warmup_tau_s"], tables: &[] };
@@ -211,6 +223,28 @@ fn num(c: &mut Collector, t: &Option<Table>, table: &str, key: &str, default: f6
         }
     };
     c.or_within(v, default, &path, lo, hi)
+}
+
+/// `effects.creep`'s Prony spectrum: (terms, τ_min, τ_max, tilt); 0 terms (the default) is the
+/// log-time form. A spectrum needs τ_min < τ_max and the superposed form (each change's creep runs
+/// on after later changes); every problem is reported with its path.
+fn creep_spectrum(c: &mut Collector, t: &Option<Table>, superposed: bool) -> (usize, f64, f64, f64) {
+    let terms = num(c, t, "effects.creep", "spectrum_terms", 0.0, 0.0, 64.0);
+    let lo = num(c, t, "effects.creep", "spectrum_min_s", 2.0, 1e-3, 1e6);
+    let hi = num(c, t, "effects.creep", "spectrum_max_s", 3600.0, 1e-3, 1e6);
+    let tilt = num(c, t, "effects.creep", "spectrum_tilt", 0.0, -2.0, 2.0);
+    let (Some(n), Some(lo), Some(hi), Some(tilt)) = (terms, lo, hi, tilt) else { return (0, 2.0, 3600.0, 0.0) };
+    if n.fract() != 0.0 {
+        c.push("effects.creep.spectrum_terms", n, "must be a whole number (0: the log-time form)");
+        return (0, lo, hi, tilt);
+    }
+    if n >= 1.0 && lo >= hi {
+        c.push("effects.creep.spectrum_min_s", lo, &format!("must be below spectrum_max_s ({hi})"));
+    }
+    if n >= 1.0 && !superposed {
+        c.push("effects.creep.spectrum_terms", n, "a spectrum needs superposed = true (each change's creep runs on after later changes)");
+    }
+    (n as usize, lo, hi, tilt)
 }
 
 /// A switch `table.key`: absent is false; anything but a boolean is a problem, with `fix`.
@@ -275,7 +309,12 @@ impl SensorParams {
         );
         let second_in_conductance =
             switch("second_time_constant", "in_conductance", "use true (the conductance relaxes a second time, seen through the read-out) or false (the response does)");
+        let spectrum = creep_spectrum(&mut c, &e("creep"), superposed);
         let eff = Effects {
+            creep_spectrum_terms: spectrum.0,
+            creep_spectrum_min_s: spectrum.1,
+            creep_spectrum_max_s: spectrum.2,
+            creep_spectrum_tilt: spectrum.3,
             second_in_conductance,
             saturation_before_noise: before_noise,
             creep_superposed: superposed,
@@ -414,5 +453,31 @@ impl ProtocolParams {
             }
         }
         super::finish(v, c.problems)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> std::result::Result<SensorParams, String> {
+        SensorParams::from_source(&SourceFile::parse("s.toml", text.to_string()).map_err(|e| e.to_string())?).map_err(|e| e.to_string())
+    }
+
+    /// The creep's Prony spectrum is read from `[effects.creep]`; a spectrum without the superposed
+    /// form, with τ_min ≥ τ_max, or with a fractional number of terms is refused, every problem with
+    /// its path and its fix, at once.
+    #[test]
+    fn a_creep_spectrum_is_read_and_its_problems_named() {
+        let base = "kind = \"sensor\"\n[effects.creep]\nper_decade = 0.01\n";
+        let s = parse(&format!("{base}superposed = true\nspectrum_terms = 6\nspectrum_min_s = 1.0\nspectrum_max_s = 1000.0\nspectrum_tilt = 0.5\n")).unwrap();
+        let e = &s.effects;
+        assert_eq!((e.creep_spectrum_terms, e.creep_spectrum_min_s, e.creep_spectrum_max_s, e.creep_spectrum_tilt), (6, 1.0, 1000.0, 0.5));
+        assert_eq!(parse(base).unwrap().effects.creep_spectrum_terms, 0, "absent: the log-time form");
+        let err = parse(&format!("{base}spectrum_terms = 6\nspectrum_min_s = 50.0\nspectrum_max_s = 10.0\n")).unwrap_err();
+        assert!(err.contains("effects.creep.spectrum_min_s") && err.contains("must be below spectrum_max_s (10)"), "{err}");
+        assert!(err.contains("effects.creep.spectrum_terms") && err.contains("superposed = true"), "{err}");
+        let err = parse(&format!("{base}superposed = true\nspectrum_terms = 2.5\n")).unwrap_err();
+        assert!(err.contains("effects.creep.spectrum_terms") && err.contains("whole number"), "{err}");
     }
 }

@@ -272,6 +272,21 @@ fn load_now(cur_load: f64, touch: Option<&(f64, f64)>, next: Option<&(f64, f64, 
     cur_load
 }
 
+/// A superposed creep's growth `since` a change, per unit of `creep_per_decade`: log-time,
+/// log10(1 + t/time_s), or with a Prony spectrum Σ_k w_k (1 − e^(−t/τ_k)) (see
+/// `Effects::creep_spectrum_terms`: the weights sum to the span in decades, at least one).
+fn creep_shape(e: &crate::params::sensor::Effects, since: f64) -> f64 {
+    let n = e.creep_spectrum_terms;
+    if n == 0 {
+        return (1.0 + since / e.creep_time_s).log10();
+    }
+    let decades = (e.creep_spectrum_max_s / e.creep_spectrum_min_s).log10();
+    let tau = |k: usize| if n == 1 { e.creep_spectrum_min_s } else { e.creep_spectrum_min_s * 10f64.powf(decades * k as f64 / (n - 1) as f64) };
+    let w = |k: usize| (tau(k) / e.creep_spectrum_min_s).powf(e.creep_spectrum_tilt);
+    let total: f64 = (0..n).map(w).sum();
+    (0..n).map(|k| w(k) * (1.0 - (-since / tau(k)).exp())).sum::<f64>() * decades.max(1.0) / total
+}
+
 /// Creep at `tk` under force `f` (from `f0` at no load): log-time growth under the current load,
 /// the previous creep (`creep_carry` at the last change, `t_change`) relaxing away; or, superposed,
 /// every change's own log-time creep, which keeps going. In conductance (S) when the effect says
@@ -287,7 +302,7 @@ fn creep(p: &SensorParams, (f0, f): (f64, f64), tk: f64, steps: &[TruthStep], (t
         for st in steps {
             let since = (tk - st.t_land_s).max(0.0);
             let after = level(st.force_after_n);
-            c += e.creep_per_decade * (after - before) * (1.0 + since / e.creep_time_s).log10();
+            c += e.creep_per_decade * (after - before) * creep_shape(e, since);
             before = after;
         }
         c
@@ -558,6 +573,44 @@ pub(crate) mod tests {
         assert!(dv > 0.0 && dg > 0.0, "{dv} {dg}");
         let want = dv / (1.0 + x);
         assert!((dg / want - 1.0).abs() < 0.1, "conductance creep {dg} V, expected ≈ {want} V (response creep {dv} V, Rm·G {x})");
+    }
+
+    /// Creep as a Prony spectrum (family B's form, `creep_spectrum_terms`): a change's creep grows
+    /// as Σ w_k (1 − e^(−t/τ_k)), reaching `creep_per_decade` × the span in decades once t ≫ τ_max
+    /// and stopping there (the log-time form keeps growing); a tilt toward the slow end puts less of
+    /// it early. In the simulation, the single-weight hold's creep (the response, superposed)
+    /// follows the shape, and the level after unloading sits raised and falls.
+    #[test]
+    fn a_prony_creep_grows_to_its_spectrum_and_stops() {
+        let mut e = crate::params::sensor::Effects { creep_time_s: 1.0, ..Default::default() };
+        assert!((creep_shape(&e, 99.0) - 2.0).abs() < 1e-12, "the log-time form is unchanged");
+        (e.creep_spectrum_terms, e.creep_spectrum_min_s, e.creep_spectrum_max_s) = (6, 2.0, 3600.0);
+        let decades = (3600.0f64 / 2.0).log10();
+        assert!((creep_shape(&e, 1e7) - decades).abs() < 1e-9, "{}", creep_shape(&e, 1e7));
+        assert!(creep_shape(&e, 0.0) == 0.0 && creep_shape(&e, 10.0) < creep_shape(&e, 100.0) && creep_shape(&e, 100.0) < creep_shape(&e, 1000.0));
+        // one term of each τ: 1 − e^(−1) of the 2 s term's weight (a sixth of the span) at t = 2 s
+        // plus the slower terms' first rise
+        let flat = creep_shape(&e, 2.0);
+        e.creep_spectrum_tilt = 0.5;
+        assert!(creep_shape(&e, 2.0) < 0.5 * flat && (creep_shape(&e, 1e7) - decades).abs() < 1e-9, "a tilt toward the slow end puts less of it early");
+        // in the simulation: one weight of 1000 g held 600 s, the response's creep superposed
+        let (mut s, _) = defaults();
+        s.noise_v = 0.0;
+        let p = ProtocolParams { weights_g: vec![1000.0], hold_s: 600.0, top_hold_s: 600.0, baseline_s: 300.0, final_rest_s: 300.0, ..defaults().1 };
+        let (_, plain) = simulate(&s, &p, 0.0, None, 5);
+        (s.effects.creep_per_decade, s.effects.creep_superposed) = (0.01, true);
+        (s.effects.creep_spectrum_terms, s.effects.creep_spectrum_min_s, s.effects.creep_spectrum_max_s) = (6, 2.0, 3600.0);
+        let (_, prony) = simulate(&s, &p, 0.0, None, 5);
+        let at = |t: f64| (t * s.circuit.sample_rate_hz).round() as usize;
+        let (on, off) = (prony.steps[0].t_land_s, prony.steps[1].t_land_s);
+        let dk = prony.steps[0].v_eq - plain.clean_v[at(on - 1.0)];
+        for since in [30.0, 300.0, 590.0] {
+            let got = prony.clean_v[at(on + since)] - plain.clean_v[at(on + since)];
+            let want = 0.01 * dk * creep_shape(&s.effects, since);
+            assert!((got / want - 1.0).abs() < 0.02, "{since} s after loading: {got} V, expected {want} V");
+        }
+        let raised = |t: f64| prony.clean_v[at(t)] - plain.clean_v[at(t)];
+        assert!(raised(off + 20.0) > raised(off + 290.0) && raised(off + 290.0) > 0.0, "after unloading: {} then {}", raised(off + 20.0), raised(off + 290.0));
     }
 
     /// A hysteresis whose memory fades: late in the last removal's hold (zero load), the unloading
