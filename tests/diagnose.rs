@@ -325,9 +325,11 @@ fn conductance_creep(s: &mut SensorParams, per_decade: f64) {
     s.effects.creep_in_conductance = true;
 }
 
-/// One simulated recording of `s` under `proto` at `seed`, diagnosed; and the names it found.
+/// One simulated recording of `s` under `proto` at `seed` (with the sensor's own preload, as
+/// `tipforge simulate` without a rig: until stop 58 this passed none, so the "preloaded" cases here
+/// ran at zero preload), diagnosed; and the names it found.
 fn diagnose_one(s: &SensorParams, proto: &ProtocolParams, seed: u64) -> (tipforge::sensor::diagnose::Diagnosis, Vec<&'static str>) {
-    let (rec, _) = simulate(s, proto, 0.0, None, seed);
+    let (rec, _) = simulate(s, proto, s.preload_g, None, seed);
     let d = diagnose(std::slice::from_ref(&rec), &Default::default()).unwrap();
     let names = d.findings.iter().map(|f| f.effect).collect();
     (d, names)
@@ -410,6 +412,31 @@ fn a_preloaded_fsr402_like_creep_is_found_from_its_recovery_at_zero_load() {
         // the preload's response (the trial's offset) is part of the level the divider converts
         let per_decade = d.findings[0].term.params["per_decade_fraction"].as_f64().unwrap();
         assert!((per_decade / 0.03 - 1.0).abs() < 0.10, "seed {seed}: per decade {per_decade}");
+    }
+}
+
+/// Issue 15 (the FSR402-like case), family B's form of its creep: a Prony spectrum of the
+/// conductance (6 terms over 1–1 000 s, most of its weight at the slow end) under 40 mV of noise and
+/// a 25 g preload. The load lands within one sample, so no ramp of the load is sought
+/// (`baseline::lands_at_once`): before, a ramp of 1.5 s was taken because it let the steps' τ
+/// (4 000 s, onsets hours back) absorb the creep, and the two real jumps then read as handling
+/// spikes, the only finding. Now no spike is named, the load changes at once, and the model found
+/// predicts the held-out data at least 80 % better than the baseline. (Which name the slow
+/// relaxation takes is not asserted here: its weight lies past the hold, where one step cannot
+/// tell a spread spectrum from one slow time constant.) Seeds not looked at before; on the old rule
+/// seed 90 045 took the ramp and named the spikes (and creep), as did 4 of the 6 seeds probed with
+/// the CLI (11, 12, 22, 23; 21 and 24 did not).
+#[test]
+fn a_slow_prony_creep_after_a_jump_is_no_ramp_and_no_spike() {
+    let (proto, mut s) = fsr402_preloaded();
+    (s.preload_g, s.noise_v) = (25.0, 0.04);
+    conductance_creep(&mut s, 0.04);
+    (s.effects.creep_spectrum_terms, s.effects.creep_spectrum_min_s, s.effects.creep_spectrum_max_s, s.effects.creep_spectrum_tilt) = (6, 1.0, 1000.0, 1.0);
+    for seed in 90_041u64..=90_046 {
+        let (d, names) = diagnose_one(&s, &proto, seed);
+        assert!(!names.contains(&"handling_spikes"), "seed {seed}: {names:?}");
+        assert!(d.baseline.load_ramp.is_none(), "seed {seed}: {:?}", d.baseline.load_ramp);
+        assert!(!names.is_empty() && d.final_.heldout_rmse <= 0.2 * d.baseline.heldout_rmse, "seed {seed}: {names:?}, {} -> {}", d.baseline.heldout_rmse, d.final_.heldout_rmse);
     }
 }
 
