@@ -33,10 +33,10 @@ pub struct Effects {
     /// Creep as a Prony spectrum (family B's form) when it has terms (0: the log-time form): with
     /// `creep_superposed`, every change of level drives Σ_k w_k · (1 − e^(−t/τ_k)), with
     /// `creep_spectrum_terms` time constants τ_k log-spaced from `creep_spectrum_min_s` to
-    /// `creep_spectrum_max_s` and weights w_k ∝ (τ_k/τ_min)^`creep_spectrum_tilt` (0: flat in log τ;
-    /// > 0: rising toward the slow end) scaled so that Σ w_k is the span in decades (at least one): a change's
-    /// creep then reaches `creep_per_decade` × the decades spanned, as a log-time creep over the
-    /// same span would, but stops growing past τ_max.
+    /// `creep_spectrum_max_s` and weights w_k ∝ (τ_k/τ_min)^`creep_spectrum_tilt` (0: flat in log τ,
+    /// above 0: rising toward the slow end) scaled so that Σ w_k is the span in decades (at least
+    /// one): a change's creep then reaches `creep_per_decade` × the decades spanned, as a log-time
+    /// creep over the same span would, but stops growing past τ_max.
     pub creep_spectrum_terms: usize,
     pub creep_spectrum_min_s: f64,
     pub creep_spectrum_max_s: f64,

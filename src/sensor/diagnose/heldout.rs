@@ -203,7 +203,9 @@ pub(super) fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config
             Some(r) => r.lambda.unwrap_or_else(|| choose_lambda(d, cfg, &parts, support)),
             None => 0.0,
         };
-        solve_normal(d, cfg, &sum_normals(d, cfg, &parts), support, lambda)
+        let mut sol = solve_normal(d, cfg, &sum_normals(d, cfg, &parts), support, lambda)?;
+        raise_to_rail(d, fit, cfg, hat, &mut sol.0, &|k| units_n.keys().any(|u| u.0 == k && keep(u)));
+        Some(sol)
     };
     let (x, full_diag) = fold(&|_| true, None)?;
     let mut buf = Vec::new();
