@@ -203,51 +203,6 @@ pub(super) fn rail_spans(trials: &[Trial], clip: f64, steps: &ClipSteps, fixed: 
 /// rail's 0.541 V, the trial's rise unit 10× worse than without the rail). The level of a load
 /// whose every hold in the trials `in_fold` ends on the rail ([`censored_everywhere`]) is raised,
 /// where needed, so that the model without the clip reaches the rail at the end of each of them.
-/// The least weight of a load's level column in the model at the end of a rail span for
-/// [`raise_to_rail`] to raise it there.
-const SETTLED_SHARE: f64 = 0.5;
-
-pub(super) fn raise_to_rail(d: &Design, trials: &[Trial], cfg: &Config, hat: &Hat, x: &mut [f64], in_fold: &dyn Fn(usize) -> bool) {
-    let (Some(rail), true) = (cfg.clip, cfg.clip_rail) else { return };
-    let mut need: std::collections::BTreeMap<usize, f64> = Default::default();
-    let mut buf = Vec::new();
-    for &(k, from, to) in cfg.rail_spans.iter().filter(|s| in_fold(s.0)) {
-        let tr = &trials[k];
-        let Some(j) = (0..tr.t.len()).rev().find(|&j| tr.t[j] >= from && tr.t[j] < to) else { continue };
-        let Some(sg) = tr.segs.iter().rev().find(|g| g.t0 <= tr.t[j]) else { continue };
-        let Some(col) = d.loads.iter().position(|&l| l == sg.load).filter(|&c| c > 0).map(|c| d.n_trials + c - 1) else { continue };
-        if col >= d.n_levels() {
-            continue;
-        }
-        d.row(k, tr, tr.t[j], cfg, hat, &mut buf);
-        let v: f64 = buf.iter().zip(x.iter()).map(|(a, b)| a * b).sum::<f64>() + tr.prior(tr.t[j]) + clip_offset(k, tr, tr.t[j], cfg);
-        // only where the level is the model's (a hold settled toward it), not a fall from the rail
-        // restarting at it (its level's column there is the fall's small share so far)
-        if v < rail && buf[col] >= SETTLED_SHARE && censored_everywhere(trials, cfg, sg.load, in_fold) {
-            let e = need.entry(col).or_insert(0.0);
-            *e = e.max((rail - v) / buf[col]);
-        }
-    }
-    for (col, up) in need {
-        x[col] += up;
-    }
-}
-
-/// Whether every hold at `load` of the trials `in_fold` ends on the rail (inside one of
-/// `cfg.rail_spans`): then no hold pins that load's level, and the rail bounds it from below. A
-/// hold that ends below the rail in one trial pins the level shared by all (one trial's higher
-/// gain may put its hold on the rail while the others' stay under it; family A, seed 42 800: the
-/// 160 g level raised to one trial's rail lost 18 points of held-out gain).
-fn censored_everywhere(trials: &[Trial], cfg: &Config, load: f64, in_fold: &dyn Fn(usize) -> bool) -> bool {
-    trials.iter().enumerate().filter(|(k, _)| in_fold(*k)).all(|(k, tr)| {
-        let last = tr.t.last().copied().unwrap_or(0.0);
-        tr.segs.iter().enumerate().filter(|(_, sg)| sg.load == load).all(|(s, _)| {
-            let end = tr.segs.get(s + 1).map_or(last, |x| x.t0);
-            cfg.rail_spans.iter().any(|&(i, from, to)| i == k && from < end && to >= end.min(last) - 1e-9)
-        })
-    })
-}
-
 pub(super) fn clip_level(trials: &[Trial]) -> Option<f64> {
     let sigma = trials.iter().map(|t| t.sigma).fold(0.0, f64::max);
     catalogue::saturation::clip_level(&trials.iter().map(|t| t.v.as_slice()).collect::<Vec<_>>(), sigma)
@@ -349,46 +304,6 @@ mod tests {
         let fixes = clip_fixes(&b.trials, level, &steps);
         assert_eq!(fixes.len(), 3);
         assert!(clip_level(&fixture::built(&fixture::recs(7000, |_| {})).trials).is_none());
-    }
-
-    /// A load held on the rail in every trial has its level raised to the rail where a fit left
-    /// it under ([`raise_to_rail`]); a load whose hold ends on the rail in one trial only keeps the
-    /// level the other trials' holds pin, and a trial left out of the fold counts for nothing.
-    #[test]
-    fn a_level_every_trial_holds_on_the_rail_is_raised_to_it_and_no_other() {
-        let b = fixture::built(&fixture::recs(7000, |s| (s.effects.saturation_v, s.effects.saturation_before_noise) = (1.55, true)));
-        let (d, trials) = (&b.d, &b.trials);
-        let mut cfg = b.base_cfg.clone();
-        (cfg.clip, cfg.clip_rail) = (Some(1.55), true);
-        let span = |k: usize, load: f64, nth: usize| {
-            let tr = &trials[k];
-            let s = tr.segs.iter().enumerate().filter(|(_, g)| g.load == load).map(|(s, _)| s).nth(nth).expect("a hold at that load");
-            (k, tr.segs[s].t0 + 1.0, tr.segs.get(s + 1).map_or(tr.t[tr.t.len() - 1] + 1.0, |g| g.t0))
-        };
-        // the top load's one hold in every trial, and the 800 g unloading hold in trial 0 only
-        cfg.rail_spans = (0..3).map(|k| span(k, 1000.0, 0)).chain([span(0, 800.0, 1)]).collect();
-        let mut x = solve(d, trials, &all_rows(trials), &cfg, &b.hat).expect("a fit");
-        let col = |load: f64| d.n_trials + d.loads.iter().position(|&l| l == load).unwrap() - 1;
-        let (top, mid) = (col(1000.0), col(800.0));
-        x[top] -= 0.2;
-        x[mid] -= 0.2;
-        let (low_top, low_mid) = (x[top], x[mid]);
-        let mut buf = Vec::new();
-        let unclipped = |x: &[f64], (k, _, to): (usize, f64, f64), buf: &mut Vec<f64>| {
-            let tr = &trials[k];
-            let j = (0..tr.t.len()).rev().find(|&j| tr.t[j] < to).unwrap();
-            d.row(k, tr, tr.t[j], &cfg, &b.hat, buf);
-            buf.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() + tr.prior(tr.t[j]) + clip_offset(k, tr, tr.t[j], &cfg)
-        };
-        let mut only_two = x.clone();
-        raise_to_rail(d, trials, &cfg, &b.hat, &mut x, &|_| true);
-        assert!(x[top] > low_top && x[mid] == low_mid, "top {low_top} -> {}, 800 g {low_mid} -> {}", x[top], x[mid]);
-        let least = (0..3).map(|k| unclipped(&x, cfg.rail_spans[k], &mut buf)).fold(f64::INFINITY, f64::min);
-        assert!((least - 1.55).abs() < 1e-9, "the lowest trial reaches the rail: {least}");
-        // without trial 0, the 800 g hold on the rail is in no trial of the fold: not raised either
-        raise_to_rail(d, trials, &cfg, &b.hat, &mut only_two, &|k| k > 0);
-        assert!(only_two[top] > low_top && only_two[mid] == low_mid);
-        assert!((1..3).all(|k| unclipped(&only_two, cfg.rail_spans[k], &mut buf) >= 1.55 - 1e-9));
     }
 
     /// The noise-free staircase of a power law seen through a divider (sensor between supply and
