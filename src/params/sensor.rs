@@ -34,7 +34,7 @@ pub struct Effects {
     /// `creep_superposed`, every change of level drives Σ_k w_k · (1 − e^(−t/τ_k)), with
     /// `creep_spectrum_terms` time constants τ_k log-spaced from `creep_spectrum_min_s` to
     /// `creep_spectrum_max_s` and weights w_k ∝ (τ_k/τ_min)^`creep_spectrum_tilt` (0: flat in log τ,
-    /// above 0: rising toward the slow end) scaled so that Σ w_k is the span in decades (at least
+    /// above 0: rising toward the slow end, below 0: toward the fast end) scaled so that Σ w_k is the span in decades (at least
     /// one): a change's creep then reaches `creep_per_decade` × the decades spanned, as a log-time
     /// creep over the same span would, but stops growing past τ_max.
     pub creep_spectrum_terms: usize,
@@ -237,6 +237,9 @@ fn creep_spectrum(c: &mut Collector, t: &Option<Table>, superposed: bool) -> (us
     if n.fract() != 0.0 {
         c.push("effects.creep.spectrum_terms", n, "must be a whole number (0: the log-time form)");
         return (0, lo, hi, tilt);
+    }
+    if n == 1.0 {
+        c.push("effects.creep.spectrum_terms", n, "use 2 or more terms, log-spaced from spectrum_min_s to spectrum_max_s (0: the log-time form)");
     }
     if n >= 1.0 && lo >= hi {
         c.push("effects.creep.spectrum_min_s", lo, &format!("must be below spectrum_max_s ({hi})"));
@@ -465,8 +468,8 @@ mod tests {
     }
 
     /// The creep's Prony spectrum is read from `[effects.creep]`; a spectrum without the superposed
-    /// form, with τ_min ≥ τ_max, or with a fractional number of terms is refused, every problem with
-    /// its path and its fix, at once.
+    /// form, with τ_min ≥ τ_max, or with a fractional number of terms or a single one is refused,
+    /// every problem with its path and its fix, at once.
     #[test]
     fn a_creep_spectrum_is_read_and_its_problems_named() {
         let base = "kind = \"sensor\"\n[effects.creep]\nper_decade = 0.01\n";
@@ -479,5 +482,7 @@ mod tests {
         assert!(err.contains("effects.creep.spectrum_terms") && err.contains("superposed = true"), "{err}");
         let err = parse(&format!("{base}superposed = true\nspectrum_terms = 2.5\n")).unwrap_err();
         assert!(err.contains("effects.creep.spectrum_terms") && err.contains("whole number"), "{err}");
+        let err = parse(&format!("{base}superposed = true\nspectrum_terms = 1\n")).unwrap_err();
+        assert!(err.contains("effects.creep.spectrum_terms") && err.contains("2 or more terms"), "{err}");
     }
 }

@@ -274,14 +274,17 @@ fn load_now(cur_load: f64, touch: Option<&(f64, f64)>, next: Option<&(f64, f64, 
 
 /// A superposed creep's growth `since` a change, per unit of `creep_per_decade`: log-time,
 /// log10(1 + t/time_s), or with a Prony spectrum Σ_k w_k (1 − e^(−t/τ_k)) (see
-/// `Effects::creep_spectrum_terms`: the weights sum to the span in decades, at least one).
+/// `Effects::creep_spectrum_terms`: the weights sum to the span in decades, at least one). Fewer
+/// than two terms is the log-time form.
 fn creep_shape(e: &crate::params::sensor::Effects, since: f64) -> f64 {
     let n = e.creep_spectrum_terms;
-    if n == 0 {
+    // (a spectrum needs two τ or more, 0 < τ_min < τ_max: the sensor file's parse checks it)
+    if n < 2 || !(e.creep_spectrum_min_s > 0.0 && e.creep_spectrum_max_s > e.creep_spectrum_min_s) {
+        debug_assert!(n == 0, "a creep spectrum of {n} terms over {}–{} s", e.creep_spectrum_min_s, e.creep_spectrum_max_s);
         return (1.0 + since / e.creep_time_s).log10();
     }
     let decades = (e.creep_spectrum_max_s / e.creep_spectrum_min_s).log10();
-    let tau = |k: usize| if n == 1 { e.creep_spectrum_min_s } else { e.creep_spectrum_min_s * 10f64.powf(decades * k as f64 / (n - 1) as f64) };
+    let tau = |k: usize| e.creep_spectrum_min_s * 10f64.powf(decades * k as f64 / (n - 1) as f64);
     let w = |k: usize| (tau(k) / e.creep_spectrum_min_s).powf(e.creep_spectrum_tilt);
     let total: f64 = (0..n).map(w).sum();
     (0..n).map(|k| w(k) * (1.0 - (-since / tau(k)).exp())).sum::<f64>() * decades.max(1.0) / total
@@ -289,7 +292,7 @@ fn creep_shape(e: &crate::params::sensor::Effects, since: f64) -> f64 {
 
 /// Creep at `tk` under force `f` (from `f0` at no load): log-time growth under the current load,
 /// the previous creep (`creep_carry` at the last change, `t_change`) relaxing away; or, superposed,
-/// every change's own log-time creep, which keeps going. In conductance (S) when the effect says
+/// every change's own creep (log-time, or a Prony spectrum: [`creep_shape`]), which keeps going. In conductance (S) when the effect says
 /// so, else in the response (V).
 fn creep(p: &SensorParams, (f0, f): (f64, f64), tk: f64, steps: &[TruthStep], (t_change, creep_carry): (f64, f64)) -> f64 {
     let e = &p.effects;

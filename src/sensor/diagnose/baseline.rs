@@ -185,8 +185,9 @@ pub(super) fn with_ramp(recs: &[Recording], opts: &Options) -> (Options, Option<
         // by hand, only a baseline at once that fails by HAND_RAMP_AT × the noise is worth the search
         let Some(b) = build(recs, opts, None) else { return (opts.clone(), None) };
         // a load that lands within one sample was not lowered slowly: no ramp is sought (one would
-        // win by what it lets the steps' τ absorb, not by the load's course)
-        if lands_at_once(&b.report) {
+        // win by what it lets the steps' τ absorb, not by the load's course), unless the step at
+        // once cannot be scored at all
+        if lands_at_once(&b.report) && b.base.heldout_rmse.is_finite() {
             return (opts.clone(), Some(b));
         }
         let mut sig: Vec<f64> = b.trials.iter().map(|t| t.sigma).collect();

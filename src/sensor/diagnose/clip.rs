@@ -195,14 +195,6 @@ pub(super) fn rail_spans(trials: &[Trial], clip: f64, steps: &ClipSteps, fixed: 
     rises.chain(falls).collect()
 }
 
-/// A load held on an amplifier's rail has its level at or above the rail (a censored observation):
-/// its samples on the rail are left out of the fit (`Config::rail_spans`), so only the short rise
-/// into the rail sets the level, and under the noise a fit to the training trials alone can put it
-/// below the rail. The model then predicts a held-out trial's plateau under the rail its data sit
-/// on (family A, B's forms at 1σ, 40 g steps, tuning seed 42 860: 0.508 V for a plateau at the
-/// rail's 0.541 V, the trial's rise unit 10× worse than without the rail). The level of a load
-/// whose every hold in the trials `in_fold` ends on the rail ([`censored_everywhere`]) is raised,
-/// where needed, so that the model without the clip reaches the rail at the end of each of them.
 pub(super) fn clip_level(trials: &[Trial]) -> Option<f64> {
     let sigma = trials.iter().map(|t| t.sigma).fold(0.0, f64::max);
     catalogue::saturation::clip_level(&trials.iter().map(|t| t.v.as_slice()).collect::<Vec<_>>(), sigma)

@@ -204,7 +204,7 @@ pub(super) fn score_on(d: &Design, fit: &[Trial], trials: &[Trial], cfg: &Config
             None => 0.0,
         };
         let mut sol = solve_normal(d, cfg, &sum_normals(d, cfg, &parts), support, lambda)?;
-        raise_to_rail(d, fit, cfg, hat, &mut sol.0, &|k| units_n.keys().any(|u| u.0 == k && keep(u)));
+        raise_to_rail(d, fit, cfg, hat, &mut sol.0, &|k| units_n.keys().filter(|u| u.0 == k).all(|u| keep(u)));
         Some(sol)
     };
     let (x, full_diag) = fold(&|_| true, None)?;
