@@ -190,6 +190,7 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
     let mut cur_load = 0.0;
     let mut steps = Vec::new();
     let mut creep_now = 0.0;
+    let shape = CreepShape::of(e);
     for k in 0..n {
         let tk = k as f64 * dt;
         while ev_i < events.len() && events[ev_i].0 <= tk + 1e-12 {
@@ -240,7 +241,7 @@ pub fn simulate(p0: &SensorParams, proto: &ProtocolParams, preload_g: f64, cover
             g_slow = p.conductance_of(target);
         }
         let first = mix(v_fast, v_slow, g_slow);
-        creep_now = creep(p, (f0, f), tk, &steps, (t_change, creep_carry));
+        creep_now = creep(p, &shape, (f0, f), tk, &steps, (t_change, creep_carry));
         // a creep of the conductance shows through the divider at the level the sensor is at
         let creep_v = if e.creep_in_conductance && creep_now != 0.0 { p.response(p.conductance_of(first) + creep_now) - first } else { creep_now };
         let ramp = if e.drift_warmup_tau_s > 0.0 { e.drift_warmup_tau_s * (1.0 - (-tk / e.drift_warmup_tau_s).exp()) } else { tk };
@@ -272,40 +273,56 @@ fn load_now(cur_load: f64, touch: Option<&(f64, f64)>, next: Option<&(f64, f64, 
     cur_load
 }
 
-/// A superposed creep's growth `since` a change, per unit of `creep_per_decade`: log-time,
+/// A superposed creep's growth since a change, per unit of `creep_per_decade`: log-time,
 /// log10(1 + t/time_s), or with a Prony spectrum Σ_k w_k (1 − e^(−t/τ_k)) (see
 /// `Effects::creep_spectrum_terms`: the weights sum to the span in decades, at least one). Fewer
-/// than two terms is the log-time form.
-fn creep_shape(e: &crate::params::sensor::Effects, since: f64) -> f64 {
-    let n = e.creep_spectrum_terms;
-    // (a spectrum needs two τ or more, 0 < τ_min < τ_max: the sensor file's parse checks it)
-    if n < 2 || !(e.creep_spectrum_min_s > 0.0 && e.creep_spectrum_max_s > e.creep_spectrum_min_s) {
-        debug_assert!(n == 0, "a creep spectrum of {n} terms over {}–{} s", e.creep_spectrum_min_s, e.creep_spectrum_max_s);
-        return (1.0 + since / e.creep_time_s).log10();
+/// than two terms is the log-time form. Built once per simulation: every sample evaluates it once
+/// per change so far.
+struct CreepShape {
+    time_s: f64,
+    /// The spectrum's τ_k and weights w_k, its span in decades (at least one) and Σ w_k.
+    prony: Option<(Vec<f64>, Vec<f64>, f64, f64)>,
+}
+
+impl CreepShape {
+    fn of(e: &crate::params::sensor::Effects) -> CreepShape {
+        let n = e.creep_spectrum_terms;
+        // (a spectrum needs two τ or more, 0 < τ_min < τ_max: the sensor file's parse checks it)
+        if n < 2 || !(e.creep_spectrum_min_s > 0.0 && e.creep_spectrum_max_s > e.creep_spectrum_min_s) {
+            debug_assert!(n == 0, "a creep spectrum of {n} terms over {}–{} s", e.creep_spectrum_min_s, e.creep_spectrum_max_s);
+            return CreepShape { time_s: e.creep_time_s, prony: None };
+        }
+        let decades = (e.creep_spectrum_max_s / e.creep_spectrum_min_s).log10();
+        let taus: Vec<f64> = (0..n).map(|k| e.creep_spectrum_min_s * 10f64.powf(decades * k as f64 / (n - 1) as f64)).collect();
+        let weights: Vec<f64> = taus.iter().map(|t| (t / e.creep_spectrum_min_s).powf(e.creep_spectrum_tilt)).collect();
+        let total: f64 = weights.iter().sum();
+        CreepShape { time_s: e.creep_time_s, prony: Some((taus, weights, decades.max(1.0), total)) }
     }
-    let decades = (e.creep_spectrum_max_s / e.creep_spectrum_min_s).log10();
-    let tau = |k: usize| e.creep_spectrum_min_s * 10f64.powf(decades * k as f64 / (n - 1) as f64);
-    let w = |k: usize| (tau(k) / e.creep_spectrum_min_s).powf(e.creep_spectrum_tilt);
-    let total: f64 = (0..n).map(w).sum();
-    (0..n).map(|k| w(k) * (1.0 - (-since / tau(k)).exp())).sum::<f64>() * decades.max(1.0) / total
+
+    fn at(&self, since: f64) -> f64 {
+        match &self.prony {
+            None => (1.0 + since / self.time_s).log10(),
+            Some((taus, weights, span, total)) => weights.iter().zip(taus).map(|(w, tau)| w * (1.0 - (-since / tau).exp())).sum::<f64>() * span / total,
+        }
+    }
 }
 
 /// Creep at `tk` under force `f` (from `f0` at no load): log-time growth under the current load,
 /// the previous creep (`creep_carry` at the last change, `t_change`) relaxing away; or, superposed,
-/// every change's own creep (log-time, or a Prony spectrum: [`creep_shape`]), which keeps going. In conductance (S) when the effect says
+/// every change's own creep (log-time, or a Prony spectrum: [`CreepShape`]), which keeps going. In conductance (S) when the effect says
 /// so, else in the response (V).
-fn creep(p: &SensorParams, (f0, f): (f64, f64), tk: f64, steps: &[TruthStep], (t_change, creep_carry): (f64, f64)) -> f64 {
+fn creep(p: &SensorParams, shape: &CreepShape, (f0, f): (f64, f64), tk: f64, steps: &[TruthStep], (t_change, creep_carry): (f64, f64)) -> f64 {
     let e = &p.effects;
     let level = |force_n: f64| if e.creep_in_conductance { p.conductance(force_n) } else { p.v_eq(force_n) };
     if e.creep_per_decade > 0.0 && e.creep_superposed {
-        // every change so far adds its own log-time creep, which keeps going (superposition
+        // every change so far adds its own creep, which keeps going (superposition
         // over the load history); the change in progress counts from its landing
         let mut c = 0.0;
         let mut before = level(f0);
         for st in steps {
             let since = (tk - st.t_land_s).max(0.0);
             let after = level(st.force_after_n);
-            c += e.creep_per_decade * (after - before) * creep_shape(e, since);
+            c += e.creep_per_decade * (after - before) * shape.at(since);
             before = after;
         }
         c
@@ -585,6 +602,7 @@ pub(crate) mod tests {
     /// follows the shape, and the level after unloading sits raised and falls.
     #[test]
     fn a_prony_creep_grows_to_its_spectrum_and_stops() {
+        let creep_shape = |e: &crate::params::sensor::Effects, since: f64| CreepShape::of(e).at(since);
         let mut e = crate::params::sensor::Effects { creep_time_s: 1.0, ..Default::default() };
         assert!((creep_shape(&e, 99.0) - 2.0).abs() < 1e-12, "the log-time form is unchanged");
         (e.creep_spectrum_terms, e.creep_spectrum_min_s, e.creep_spectrum_max_s) = (6, 2.0, 3600.0);

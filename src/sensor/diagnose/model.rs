@@ -703,8 +703,7 @@ pub(super) fn raise_to_rail(d: &Design, trials: &[Trial], cfg: &Config, hat: &Ha
         if col >= d.n_levels() {
             continue;
         }
-        d.row(k, tr, tr.t[j], cfg, hat, &mut buf);
-        let v: f64 = buf.iter().zip(x.iter()).map(|(a, b)| a * b).sum::<f64>() + tr.prior(tr.t[j]) + clip_offset(k, tr, tr.t[j], cfg);
+        let v = unclipped(d, k, tr, tr.t[j], x, cfg, hat, &mut buf);
         // only where the level is the model's (a hold settled toward it), not a fall from the rail
         // restarting at it (its level's column there is the fall's small share so far)
         if v < rail && buf[col] >= SETTLED_SHARE && censored_everywhere(trials, cfg, sg.load, in_fold) {
@@ -732,9 +731,14 @@ fn censored_everywhere(trials: &[Trial], cfg: &Config, load: f64, in_fold: &dyn 
     })
 }
 
-pub(super) fn predict(d: &Design, i: usize, tr: &Trial, t: f64, x: &[f64], cfg: &Config, hat: &Hat, buf: &mut Vec<f64>) -> f64 {
+/// The model's value at `t` in trial `i` before any clip (the design row left in `buf`).
+pub(super) fn unclipped(d: &Design, i: usize, tr: &Trial, t: f64, x: &[f64], cfg: &Config, hat: &Hat, buf: &mut Vec<f64>) -> f64 {
     d.row(i, tr, t, cfg, hat, buf);
-    let v: f64 = buf.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() + tr.prior(t) + clip_offset(i, tr, t, cfg);
+    buf.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() + tr.prior(t) + clip_offset(i, tr, t, cfg)
+}
+
+pub(super) fn predict(d: &Design, i: usize, tr: &Trial, t: f64, x: &[f64], cfg: &Config, hat: &Hat, buf: &mut Vec<f64>) -> f64 {
+    let v = unclipped(d, i, tr, t, x, cfg, hat, buf);
     match cfg.clip {
         Some(c) => v.min(c),
         None => v,
@@ -803,8 +807,7 @@ mod tests {
         let unclipped = |x: &[f64], c: &Config, (k, _, to): (usize, f64, f64), buf: &mut Vec<f64>| {
             let tr = &trials[k];
             let j = (0..tr.t.len()).rev().find(|&j| tr.t[j] < to).unwrap();
-            d.row(k, tr, tr.t[j], c, &b.hat, buf);
-            buf.iter().zip(x).map(|(a, b)| a * b).sum::<f64>() + tr.prior(tr.t[j]) + clip_offset(k, tr, tr.t[j], c)
+            unclipped(d, k, tr, tr.t[j], x, c, &b.hat, buf)
         };
         let before = x.clone();
         raise_to_rail(d, trials, &cfg, &b.hat, &mut x, &|_| true);
