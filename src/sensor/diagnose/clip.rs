@@ -24,7 +24,7 @@ pub(super) fn clipped_segments(trials: &[Trial], clip: f64, rail: bool) -> ClipS
         let at = 0.25 * tr.sigma.max(1e-12);
         let mut prev_clipped = false;
         for (s, sg) in tr.segs.iter().enumerate() {
-            let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+            let end = tr.seg_end(s);
             // at a rail, whose plateau is the rail ± the noise, a step reaches it when its hold ends
             // there (a lone sample of the hold below it may touch it)
             let reaches = if rail { ends_at(tr, (sg.t0, end), clip) } else { tr.t.iter().zip(&tr.v).any(|(&t, &v)| t >= sg.t0 && t < end && v >= clip - at) };
@@ -52,8 +52,7 @@ pub(super) fn clipped_segments(trials: &[Trial], clip: f64, rail: bool) -> ClipS
     let unit = |&(k, s): &(usize, usize)| if one { (k, s) } else { (k, s + 1) };
     let units = if rail {
         let rises = into.iter().filter(|&&(k, s)| !starts_at(&trials[k], s, clip)).map(unit).collect();
-        let falls =
-            from.iter().filter(|&&(k, s)| !ends_at(&trials[k], (trials[k].segs[s].t0, trials[k].segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY)), clip)).map(unit).collect();
+        let falls = from.iter().filter(|&&(k, s)| !ends_at(&trials[k], (trials[k].segs[s].t0, trials[k].seg_end(s)), clip)).map(unit).collect();
         vec![rises, falls]
     } else {
         vec![into.iter().map(unit).collect()]
@@ -96,7 +95,7 @@ pub(super) fn tau_line(trials: &[Trial], skip: &[(usize, usize)]) -> Option<(f64
 /// part-1 onset.
 pub(super) fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
     let sg = &tr.segs[s];
-    let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+    let end = tr.seg_end(s);
     let pts: Vec<(f64, f64)> =
         tr.t.iter().zip(&tr.v).filter(|(&t, &v)| t >= sg.t0 - 1.0 && t < end && v < clip - tr.clip_margin.max(0.5 * tr.sigma).max(1e-12)).map(|(&t, &v)| (t, v)).collect();
     let mut best = (f64::INFINITY, sg.t0);
@@ -133,7 +132,7 @@ pub(super) fn rising_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
 /// signal, above the rail, comes down to it) or the next step.
 fn falling_onset(tr: &Trial, s: usize, tau: f64, clip: f64) -> f64 {
     let sg = &tr.segs[s];
-    let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+    let end = tr.seg_end(s);
     let (lo, hi) = (sg.t0.min(sg.t_log) - 1.0, end.min(sg.t_log + 6.0 + 3.0 * tau));
     let pts: Vec<(f64, f64)> = tr.t.iter().zip(&tr.v).filter(|(&t, _)| t >= lo && t < end.min(hi + 5.0 * tau)).map(|(&t, &v)| (t, v - clip)).collect();
     let mut best = (f64::INFINITY, sg.t0);
@@ -179,7 +178,7 @@ pub(super) fn clip_fixes(trials: &[Trial], clip: f64, steps: &ClipSteps) -> Vec<
 /// the rail too. `terms::settle_rail_spans` then starts each where the fitted model reaches the rail.
 pub(super) fn rail_spans(trials: &[Trial], clip: f64, steps: &ClipSteps, fixed: &[FixedStep]) -> Vec<(usize, f64, f64, f64)> {
     let onset = |at: (usize, usize)| fixed.iter().find(|f| f.at == at).map(|f| f.t0_s);
-    let next = |k: usize, s: usize| trials[k].segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+    let next = |k: usize, s: usize| trials[k].seg_end(s);
     let rises = steps.into.iter().map(|&(k, s)| {
         let tr = &trials[k];
         let start = onset((k, s)).unwrap_or(tr.segs[s].t0);
@@ -240,7 +239,7 @@ pub(super) fn rail_level(d: &Design, trials: &[Trial], hat: &Hat) -> Option<f64>
     for tr in trials {
         let last = tr.t.last().copied().unwrap_or(0.0);
         for (s, sg) in tr.segs.iter().enumerate().filter(|(_, sg)| sg.load == top_load) {
-            let end = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(last).min(last);
+            let end = tr.seg_end(s).min(last);
             let mid = sg.t0 + 0.5 * (end - sg.t0);
             settled.extend(tr.t.iter().zip(&tr.v).filter(|(&t, _)| t >= mid && t < end).map(|(_, &v)| v));
         }

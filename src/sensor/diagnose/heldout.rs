@@ -304,7 +304,7 @@ fn leave_steps_out(d: &Design, tr: &Trial, cfg: &Config, hat: &Hat, fold: &Fold,
     let mut held = Held::default();
     let mut buf = Vec::new();
     for s in 0..tr.segs.len() {
-        let (a, b) = (tr.segs[s].t0, tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY));
+        let (a, b) = (tr.segs[s].t0, tr.seg_end(s));
         // the step's rows are unit s + 1 (segments count from the first onset)
         let Some((mut xk, _)) = fold(&|u| *u != (0, s + 1), Some(full_diag)) else { continue };
         // the held-out step's own time-constant correction has (almost) no training data:
@@ -348,7 +348,7 @@ fn unit_counts(trials: &[Trial], blocks: usize) -> std::collections::BTreeMap<(u
     } else {
         let tr = &trials[0];
         for (s, sg) in tr.segs.iter().enumerate() {
-            let b = tr.segs.get(s + 1).map(|x| x.t0).unwrap_or(f64::INFINITY);
+            let b = tr.seg_end(s);
             counts.insert((0, s), tr.t.iter().filter(|&&t| t >= sg.t0 && t < b).count());
         }
     }

@@ -138,7 +138,7 @@ pub(super) fn step_transients(d: &Design, trials: &[Trial], x: &[f64], cfg: &Con
     let (mut up, mut down) = (Vec::new(), Vec::new());
     for (i, tr) in trials.iter().enumerate() {
         for (s, sg) in tr.segs.iter().enumerate() {
-            let end = tr.segs.get(s + 1).map(|n| n.t0).unwrap_or(f64::INFINITY);
+            let end = tr.seg_end(s);
             let early = sg.t0 + 0.1 * (end.min(tr.t[tr.t.len() - 1]) - sg.t0);
             let r: Vec<f64> = (0..tr.t.len()).filter(|&j| tr.t[j] >= sg.t0 && tr.t[j] < early).map(|j| tr.v[j] - predict(d, i, tr, tr.t[j], x, cfg, hat, &mut buf)).collect();
             if r.len() < 3 {

@@ -46,6 +46,10 @@ pub(super) struct Trial {
 }
 
 impl Trial {
+    /// Where segment `s` ends: the next segment's onset (s), or never after the last one.
+    pub(super) fn seg_end(&self, s: usize) -> f64 {
+        self.segs.get(s + 1).map_or(f64::INFINITY, |g| g.t0)
+    }
     /// From its first sample to its last (s).
     pub(super) fn span_s(&self) -> f64 {
         self.t.last().copied().unwrap_or(0.0) - self.t.first().copied().unwrap_or(0.0)
@@ -725,7 +729,7 @@ fn censored_everywhere(trials: &[Trial], cfg: &Config, load: f64, in_fold: &dyn 
     trials.iter().enumerate().filter(|(k, _)| in_fold(*k)).all(|(k, tr)| {
         let last = tr.t.last().copied().unwrap_or(0.0);
         tr.segs.iter().enumerate().filter(|(_, sg)| sg.load == load).all(|(s, _)| {
-            let end = tr.segs.get(s + 1).map_or(last, |x| x.t0);
+            let end = tr.seg_end(s).min(last);
             cfg.rail_spans.iter().any(|&(i, from, to)| i == k && from < end && to >= end.min(last) - 1e-9)
         })
     })
