@@ -948,7 +948,11 @@ fn a_rail_under_the_trials_rests_is_found_with_them() {
         let d = diagnose(&recs, &Default::default()).unwrap();
         let names: Vec<_> = d.findings.iter().map(|f| f.effect).collect();
         assert!(names.iter().all(|&n| n == "saturation"), "seed {seed}: {names:?}");
-        let together = d.decisions.iter().any(|dc| dc.stage == "together" && dc.accepted && dc.z >= 3.0);
+        // a rest relaxation taken as a partner, and the round after it taking the rail
+        let together = d.decisions.iter().find(|dc| dc.stage == "together" && dc.accepted).is_some_and(|t| {
+            assert!(t.z >= 3.0, "seed {seed}: {t:?}");
+            d.decisions.iter().any(|dc| dc.stage == "forward" && dc.step == t.step + 1 && dc.candidate == "saturation" && dc.accepted)
+        });
         named += names.len();
         with_rests += usize::from(together && names == ["saturation"] && d.nuisances.iter().any(|n| n.name == "rest_relaxation"));
     }

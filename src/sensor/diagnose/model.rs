@@ -729,7 +729,7 @@ fn censored_everywhere(trials: &[Trial], cfg: &Config, load: f64, in_fold: &dyn 
     trials.iter().enumerate().filter(|(k, _)| in_fold(*k)).all(|(k, tr)| {
         let last = tr.t.last().copied().unwrap_or(0.0);
         tr.segs.iter().enumerate().filter(|(_, sg)| sg.load == load).all(|(s, _)| {
-            let end = tr.seg_end(s).min(last);
+            let end = if s + 1 < tr.segs.len() { tr.seg_end(s) } else { last };
             cfg.rail_spans.iter().any(|&(i, from, to)| i == k && from < end && to >= end.min(last) - 1e-9)
         })
     })

@@ -48,6 +48,8 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
     // once (issue 15, item 5: a term taken early can be dropped for a later one, and a term it
     // had stood in for may then pass)
     let mut next_round = 0;
+    // a rest relaxation taken as a partner (`together`): the term it came with, and the model before
+    let mut pending: Option<(Effect, (Config, Score, Vec<f64>, Hat, usize))> = None;
     for pass in 0..2 {
         // a backward decision takes a step number of its own
         next_round = decisions.last().map_or(next_round, |dc: &Decision| dc.step + 1);
@@ -58,10 +60,19 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
             if round == 0 {
                 exact0 = exact;
             }
-            let paired = if best.is_none() { near.and_then(|n| together(round, (&cur, &cur_score), n, &hat, ctx, &mut decisions)) } else { None };
-            let Some((e, c, s, x)) = best.or(paired) else { break };
+            // the term a partner came with must follow it (the levels moved in between), or neither enters
+            if let Some((_, before)) = pending.take().filter(|(b, _)| best.as_ref().is_none_or(|p| p.0 != *b)) {
+                undo_partner(before, (&mut cur, &mut cur_score, &mut cur_x, &mut hat), &mut nuisances, &mut decisions);
+                break;
+            }
+            let via_together = best.is_none();
+            let paired = if via_together { near.and_then(|n| together(round, (&cur, &cur_score), n, &hat, ctx, &mut decisions)) } else { None };
+            if let Some((_, b)) = &paired {
+                pending = Some((*b, (cur.clone(), cur_score.clone(), cur_x.clone(), hat.clone(), nuisances.len())));
+            }
+            let Some((e, c, s, x)) = best.or(paired.map(|(p, _)| p)) else { break };
             if let Some(dc) = decisions.iter_mut().rev().find(|dc| dc.step == round && dc.candidate == e.name() && dc.stage == "forward") {
-                dc.accepted = dc.z >= MIN_Z;
+                dc.accepted = !via_together;
             }
             let windows = entry_windows(e, d, trials, &cur_x, &cur, &hat, clip, report);
             let gain = (cur_score.heldout_rmse - s.heldout_rmse) / cur_score.heldout_rmse;
@@ -95,6 +106,10 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
                 }
             }
         }
+        // (the rounds ran out before the partner's term could follow it)
+        if let Some((_, before)) = pending.take() {
+            undo_partner(before, (&mut cur, &mut cur_score, &mut cur_x, &mut hat), &mut nuisances, &mut decisions);
+        }
         // backward check: every kept term must still pass given all the others
         let dropped = backward((&mut cur, &mut cur_score, &mut cur_x), &floor, &hat, ctx, (&mut findings, &mut decisions, &mut nuisances));
         if !dropped || pass == 1 {
@@ -118,6 +133,22 @@ fn relevel(d: &Design, trials: &[Trial], cur: &Config, (score_, x, hat): (&mut S
         *hat = next;
         *score_ = s2;
         *x = x2;
+    }
+}
+
+/// The model as it was before a partner (`together`) whose term did not follow it; its decision is
+/// marked not accepted.
+fn undo_partner(
+    before: (Config, Score, Vec<f64>, Hat, usize),
+    model: (&mut Config, &mut Score, &mut Vec<f64>, &mut Hat),
+    nuisances: &mut Vec<NuisanceTerm>,
+    decisions: &mut [Decision],
+) {
+    let kept;
+    (*model.0, *model.1, *model.2, *model.3, kept) = before;
+    nuisances.truncate(kept);
+    if let Some(dc) = decisions.iter_mut().rev().find(|dc| dc.stage == "together") {
+        dc.accepted = false;
     }
 }
 
@@ -174,7 +205,7 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
                 if best.as_ref().is_none_or(|b| s.heldout_rmse < b.2.heldout_rmse) {
                     best = Some((e, c, s, x));
                 }
-            } else if e == Effect::RestRelaxation {
+            } else if e == Effect::RestRelaxation && z > 0.0 {
                 near = Some((e, c, s, x));
             }
         }
@@ -194,22 +225,24 @@ struct Round {
 /// A nuisance and a term that pass only together (forward selection takes one term at a time, and
 /// misses them): when a round takes nothing, a trial's rest relaxation that failed only its paired z
 /// (`near`: the trials' rests dominate an error in which a rail's few units are outweighed) is taken
-/// when, given it, a round takes a term, and it in turn passes the rule given that term, and the two
-/// together pass it against the current model. It enters now (with a decision of stage
-/// `together`); the next round takes the term, and the backward check drops either if it no longer
-/// passes. Only a nuisance is a partner: a drift taken as one brought a rest relaxation whose trials
+/// when, given it, a round takes a term, its own paired z given that term reaches MIN_Z, and the two
+/// together pass the rule against the current model. It enters now (with a decision of stage
+/// `together`, whose z is the smaller of those two); the next round must take that term, or the
+/// model goes back to before the partner and the decision is marked not accepted. The backward
+/// check may still drop either. Only a nuisance is a partner: a drift taken as one brought a rest relaxation whose trials
 /// agree (a warm-up's, which the drift alone could not show) onto a null case of family A's row 35
 /// (seed 42 990).
-fn together(round: usize, (cur, cur_score): (&Config, &Score), near: Pick, hat: &Hat, ctx: &Ctx, decisions: &mut Vec<Decision>) -> Option<Pick> {
+fn together(round: usize, (cur, cur_score): (&Config, &Score), near: Pick, hat: &Hat, ctx: &Ctx, decisions: &mut Vec<Decision>) -> Option<(Pick, Effect)> {
     let (d, trials, clip_steps) = (ctx.d, ctx.trials, &ctx.clip_steps.units);
     let (a, c_a, s_a, x_a) = near;
     let Round { best: Some((b, _, s_ab, _)), .. } = forward_round(round, (&c_a, &s_a), hat, ctx, &mut Vec::new()) else { return None };
-    let sat = |e: Effect| e == Effect::Saturation;
-    let c_b = candidate(b, cur, ctx)?;
+    // the term alone, built on the model's levels (as the forward round builds it)
+    let c_b = candidate(b, cur, &Ctx { d, trials, hat, clip: ctx.clip, clip_steps: ctx.clip_steps, tau2_scale: ctx.tau2_scale })?;
     let (s_b, _) = score(d, trials, &c_b, hat)?;
-    // the partner's own evidence given the term, and the pair's against the current model
-    let z_a = change_z(sat(a), &s_b, &s_ab, clip_steps);
-    let z_ab = change_z(sat(a) || sat(b), cur_score, &s_ab, clip_steps);
+    // the partner's own paired z given the term, and the pair's against the current model (the
+    // partner, a rest relaxation, is never the clip)
+    let z_a = change_z(false, &s_b, &s_ab, clip_steps);
+    let z_ab = change_z(b == Effect::Saturation, cur_score, &s_ab, clip_steps);
     let gain = (cur_score.heldout_rmse - s_ab.heldout_rmse) / cur_score.heldout_rmse.max(1e-300);
     if z_a < MIN_Z || z_ab < MIN_Z || s_ab.bic - cur_score.bic > MIN_DBIC {
         return None;
@@ -224,7 +257,7 @@ fn together(round: usize, (cur, cur_score): (&Config, &Score), near: Pick, hat: 
         delta_bic: s_ab.bic - cur_score.bic,
         accepted: true,
     });
-    Some((a, c_a, s_a, x_a))
+    Some(((a, c_a, s_a, x_a), b))
 }
 
 /// The backward check (true when it dropped a term): every kept term must still pass the rule given all the others (a term taken
