@@ -49,7 +49,7 @@ pub(super) fn select(base_cfg: &Config, clean: Score, xc: Vec<f64>, hat: Hat, ct
     // had stood in for may then pass)
     let mut next_round = 0;
     // a rest relaxation taken as a partner (`together`): the term it came with, and the model before
-    let mut pending: Option<(Effect, (Config, Score, Vec<f64>, Hat, usize))> = None;
+    let mut pending: Option<(Effect, Before)> = None;
     for pass in 0..2 {
         // a backward decision takes a step number of its own
         next_round = decisions.last().map_or(next_round, |dc: &Decision| dc.step + 1);
@@ -135,6 +135,9 @@ fn relevel(d: &Design, trials: &[Trial], cur: &Config, (score_, x, hat): (&mut S
         *x = x2;
     }
 }
+
+/// The model before a partner (`together`) entered, and how many nuisances it had.
+type Before = (Config, Score, Vec<f64>, Hat, usize);
 
 /// The model as it was before a partner (`together`) whose term did not follow it; its decision is
 /// marked not accepted.
