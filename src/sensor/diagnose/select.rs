@@ -141,12 +141,7 @@ type Before = (Config, Score, Vec<f64>, Hat, usize);
 
 /// The model as it was before a partner (`together`) whose term did not follow it; its decision is
 /// marked not accepted.
-fn undo_partner(
-    before: (Config, Score, Vec<f64>, Hat, usize),
-    model: (&mut Config, &mut Score, &mut Vec<f64>, &mut Hat),
-    nuisances: &mut Vec<NuisanceTerm>,
-    decisions: &mut [Decision],
-) {
+fn undo_partner(before: Before, model: (&mut Config, &mut Score, &mut Vec<f64>, &mut Hat), nuisances: &mut Vec<NuisanceTerm>, decisions: &mut [Decision]) {
     let kept;
     (*model.0, *model.1, *model.2, *model.3, kept) = before;
     nuisances.truncate(kept);
