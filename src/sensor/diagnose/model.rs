@@ -701,7 +701,8 @@ pub(super) fn raise_to_rail(d: &Design, trials: &[Trial], cfg: &Config, hat: &Ha
     let mut buf = Vec::new();
     for &(k, from, to) in cfg.rail_spans.iter().filter(|s| in_fold(s.0)) {
         let tr = &trials[k];
-        let Some(j) = (0..tr.t.len()).rev().find(|&j| tr.t[j] >= from && tr.t[j] < to) else { continue };
+        // the span's last sample (the times are sorted)
+        let Some(j) = tr.t.partition_point(|&t| t < to).checked_sub(1).filter(|&j| tr.t[j] >= from) else { continue };
         let Some(sg) = tr.segs.iter().rev().find(|g| g.t0 <= tr.t[j]) else { continue };
         let Some(col) = d.loads.iter().position(|&l| l == sg.load).filter(|&c| c > 0).map(|c| d.n_trials + c - 1) else { continue };
         if col >= d.n_levels() {
