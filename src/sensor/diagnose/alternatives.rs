@@ -290,6 +290,31 @@ pub(super) fn where_they_differ(cur: &Config, cur_score: &Score, alts: &[(Effect
     None
 }
 
+/// The least held-out gain, and the least paired z, by which an alternative that predicts the data
+/// better than the named effect takes its name when the data cannot separate them (below
+/// `keep_if_clearly_better`'s MIN_Z and least gain, and no rule of the holds decides).
+pub(super) const LEANS_GAIN: f64 = 0.01;
+pub(super) const LEANS_Z: f64 = 1.0;
+
+/// A name the data lean away from: of two effects this recording cannot tell apart (one named, the
+/// other its alternative), the one that predicts the held-out data better. The forward step's pick
+/// is no better evidence than that: it offers creep in its restarting form only, and ranks the
+/// candidates by the same held-out gain, where the alternatives are fitted in every form. Only the
+/// relaxations, hysteresis and drift take part (a clip and the trials' rests are decided by their
+/// own rules). The finding to rename and the model with the best-predicting alternative in its place.
+pub(super) fn leans_to(cur: &Config, alts: &[(Effect, Vec<Alternative>, Option<Better>)], ctx: &Ctx) -> Option<(Effect, Better)> {
+    const SWAPPABLE: [Effect; 4] = [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift];
+    let (named, other, alt) = alts
+        .iter()
+        .filter(|(named, ..)| SWAPPABLE.contains(named))
+        .flat_map(|(named, list, _)| SWAPPABLE.iter().filter_map(move |e| list.iter().find(|a| a.effect == e.name()).map(|a| (*named, *e, a))))
+        .filter(|(_, _, a)| a.gain_over_named >= LEANS_GAIN && a.z_named_over_this <= -LEANS_Z)
+        .max_by(|a, b| a.2.gain_over_named.total_cmp(&b.2.gain_over_named))?;
+    let idx = cur.effects.iter().position(|e| *e == named)?;
+    let (c, s, x) = in_place(other, &without(cur, idx), ctx)?;
+    Some((named, Better { effect: other, cfg: c, score: s, x, z: -alt.z_named_over_this }))
+}
+
 /// The held-out units (trial, segment) of holds at a load above every earlier one of their trial:
 /// the virgin loading branch, where no memory of a higher load can act.
 pub(super) fn virgin_loading_units(trials: &[Trial]) -> Vec<(usize, usize)> {
