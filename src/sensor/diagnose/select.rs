@@ -191,7 +191,7 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         // two hypotheses): a rest relaxation whose trials agree is a warm-up of the read-out,
         // the drift's
         // (checked last: it is a cross-validated score of its own)
-        let per_trial = || e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, &c, &s, hat);
+        let per_trial = || e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, (&c, &s), cur_score, hat);
         // and a creep or a hysteresis must have its physics' sign (`gate::of_its_sign`)
         // the passing candidate that predicts held-out data best is taken (issue 15, item 5; BIC
         // ranked them until stop 41). ΔBIC ≤ MIN_DBIC stays in the rule as the least in-sample
@@ -338,7 +338,7 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         let (by_holds, by_differ, by_lean) = if swap.is_none() && merged.is_none() {
             let w = if differ_once { None } else { alternatives::where_they_differ(&cur, &cur_score, &alts, &actx) };
             let h = if w.is_some() || settled_once { None } else { alternatives::settled(&cur, &alts, &actx) };
-            let l = if w.is_some() || h.is_some() { None } else { alternatives::leans_to(&cur, &alts, &actx) };
+            let l = if w.is_some() || h.is_some() { None } else { alternatives::leans_to(&cur, &cur_score, &alts, &actx) };
             (h, w, l)
         } else {
             (None, None, None)
