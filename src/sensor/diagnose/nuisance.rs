@@ -101,13 +101,8 @@ pub(super) fn as_nuisance(e: Effect, params: serde_json::Value, before: &Score, 
 /// Whether a per-trial rest relaxation (config `c`, scored `s`) predicts the held-out data better
 /// than the same decay shared by the trials (one amplitude: the drift's warm-up with the rest's τ)
 /// under the rule a nuisance passes (paired z ≥ MIN_Z, gain ≥ MIN_ROBUST_GAIN). Trials that agree
-/// have no nuisance to report; a model with a drift already has its shared form. A shared form
-/// that does not itself pass against the current model (`cur_score`; paired z ≥ MIN_Z, gain over
-/// MIN_TERM_GAIN) is no warm-up the data show: the decay from each trial's start is then the rests'.
-/// (Without that, on family A's B-form nulls the rests, 11–14 % better held out, were refused
-/// because a warm-up the data did not support fitted them as well, and a second relaxation of
-/// negative share, 3.7 % better, stood in for them.)
-pub(super) fn beats_its_shared_form(d: &Design, trials: &[Trial], (c, s): (&Config, &Score), cur_score: &Score, hat: &Hat) -> bool {
+/// have no nuisance to report; a model with a drift already has its shared form.
+pub(super) fn beats_its_shared_form(d: &Design, trials: &[Trial], c: &Config, s: &Score, hat: &Hat) -> bool {
     let Some(tau) = c.rest_tau else { return true };
     if c.effects.contains(&Effect::BaselineDrift) {
         return true;
@@ -118,9 +113,6 @@ pub(super) fn beats_its_shared_form(d: &Design, trials: &[Trial], (c, s): (&Conf
     shared.effects.push(Effect::BaselineDrift);
     shared.drift_tau = Some(tau);
     let Some((sh, _)) = score(d, trials, &shared, hat) else { return true };
-    if !(sh.gain_over(cur_score) > MIN_TERM_GAIN && z_over(cur_score, &sh) >= MIN_Z) {
-        return true;
-    }
     let gain = (sh.heldout_rmse - s.heldout_rmse) / sh.heldout_rmse.max(1e-300);
     gain >= MIN_ROBUST_GAIN && z_over(&sh, s) >= MIN_Z
 }

@@ -191,7 +191,7 @@ fn forward_round(round: usize, (cur, cur_score): (&Config, &Score), hat: &Hat, c
         // two hypotheses): a rest relaxation whose trials agree is a warm-up of the read-out,
         // the drift's
         // (checked last: it is a cross-validated score of its own)
-        let per_trial = || e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, (&c, &s), cur_score, hat);
+        let per_trial = || e != Effect::RestRelaxation || nuisance::beats_its_shared_form(d, trials, &c, &s, hat);
         // and a creep or a hysteresis must have its physics' sign (`gate::of_its_sign`)
         // the passing candidate that predicts held-out data best is taken (issue 15, item 5; BIC
         // ranked them until stop 41). ΔBIC ≤ MIN_DBIC stays in the rule as the least in-sample
