@@ -317,7 +317,11 @@ pub(super) fn leans_to(cur: &Config, cur_score: &Score, alts: &[(Effect, Vec<Alt
     for (named, list, _) in alts.iter().filter(|(named, ..)| SWAPPABLE.contains(named)) {
         let Some(idx) = cur.effects.iter().position(|e| e == named) else { continue };
         let reference = named_ref(*named);
-        for other in SWAPPABLE.iter().filter(|e| list.iter().any(|a| a.effect == e.name())) {
+        // (the list's gain is the lean's own but for a hysteresis's fading memory, which only
+        // lowers the gain of an alternative to one named: it rules out the rest unrefitted; its
+        // z is not, the robust routes being one-sided)
+        let may_lean = |e: &&Effect| list.iter().any(|a| a.effect == e.name() && (**e == Effect::Hysteresis || a.gain_over_named >= LEANS_GAIN));
+        for other in SWAPPABLE.iter().filter(may_lean) {
             let Some((c, s, x)) = in_place(*other, &without(cur, idx), ctx) else { continue };
             let (c, s, x) = if *other == Effect::Hysteresis { fading(c, s, x) } else { (c, s, x) };
             let (gain, z) = (s.gain_over(&reference), z_over(&reference, &s));

@@ -14,12 +14,30 @@ use super::*;
 /// minimum gain keeps a consistent but negligible change out.
 pub(super) fn paired_z(before: &[f64], after: &[f64]) -> f64 {
     let z = diff_z(before, after);
-    let (sb, sa) = (before.iter().sum::<f64>(), after.iter().sum::<f64>());
-    if before.len() == after.len() && sb > 0.0 && 1.0 - (sa / sb).sqrt() >= MIN_ROBUST_GAIN {
+    if robust_gain(before, after) {
         z.max(signed_rank_z(before, after))
     } else {
         z
     }
+}
+
+/// Whether `after`'s units sum to a held-out RMSE at least [`MIN_ROBUST_GAIN`] below `before`'s
+/// (the condition of the robust routes).
+fn robust_gain(before: &[f64], after: &[f64]) -> bool {
+    let (sb, sa) = (before.iter().sum::<f64>(), after.iter().sum::<f64>());
+    before.len() == after.len() && sb > 0.0 && 1.0 - (sa / sb).sqrt() >= MIN_ROBUST_GAIN
+}
+
+/// The z of a sample's mean against zero (mean over its standard error); none with fewer than three
+/// values or no spread.
+fn mean_z(d: &[f64]) -> Option<f64> {
+    if d.len() < 3 {
+        return None;
+    }
+    let m = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / m;
+    let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
+    (sd > 0.0).then(|| mean / (sd / m.sqrt()))
 }
 
 /// [`paired_z`] of `after` over `before`, their held-out units paired by (trial, segment): two
@@ -50,21 +68,11 @@ pub(super) fn z_over(before: &Score, after: &Score) -> f64 {
 /// signed ranks' 2.48, the ratios' 4.5).
 pub(super) fn paired_z_by_ratio(before: &[f64], after: &[f64]) -> f64 {
     let z = paired_z(before, after);
-    let (sb, sa) = (before.iter().sum::<f64>(), after.iter().sum::<f64>());
-    if before.len() != after.len() || sb <= 0.0 || 1.0 - (sa / sb).sqrt() < MIN_ROBUST_GAIN {
+    if !robust_gain(before, after) {
         return z;
     }
     let r: Vec<f64> = before.iter().zip(after).filter(|(b, a)| **b > 0.0 && **a > 0.0).map(|(b, a)| (b / a).ln()).collect();
-    if r.len() < 3 {
-        return z;
-    }
-    let m = r.len() as f64;
-    let mean = r.iter().sum::<f64>() / m;
-    let sd = (r.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
-    if sd <= 0.0 {
-        return z;
-    }
-    z.max(mean / (sd / m.sqrt()))
+    mean_z(&r).map_or(z, |zr| z.max(zr))
 }
 
 /// The least held-out RMSE gain a model `c` must bring over the one it replaces: the conductance's
@@ -126,17 +134,11 @@ pub(super) fn signed_rank_z(before: &[f64], after: &[f64]) -> f64 {
 
 /// The paired z of the per-unit differences.
 pub(super) fn diff_z(before: &[f64], after: &[f64]) -> f64 {
-    if before.len() != after.len() || before.len() < 3 {
+    if before.len() != after.len() {
         return 0.0;
     }
     let d: Vec<f64> = before.iter().zip(after).map(|(a, b)| a - b).collect();
-    let m = d.len() as f64;
-    let mean = d.iter().sum::<f64>() / m;
-    let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
-    if sd <= 0.0 {
-        return 0.0;
-    }
-    mean / (sd / m.sqrt())
+    mean_z(&d).unwrap_or(0.0)
 }
 
 /// The one-sided normal quantile at half the tail of [`MIN_Z`] (p 0.00135 / 2): the better of two
