@@ -304,8 +304,11 @@ pub(super) const LEANS_Z: f64 = 1.0;
 /// own rules). Each side in its best form: a hysteresis, offered with a permanent memory while the
 /// names are chosen, with its memory fading when the data show it (as `where_they_differ` sets it
 /// against a relaxation; without that, family A's 60 s fading hysteresis of row 27 leaned to creep
-/// in 3 of 8 tuning cases). The finding to rename and the model with the alternative in its place.
-pub(super) fn leans_to(cur: &Config, cur_score: &Score, alts: &[(Effect, Vec<Alternative>, Option<Better>)], ctx: &Ctx) -> Option<(Effect, Better)> {
+/// in 3 of 8 tuning cases). Not between creep and a second relaxation, which the holds name either
+/// way (`settled`: when it leaves creep named, the holds showed it not settle), and not a finding a
+/// rule of the holds named (`by_the_holds`): the lean does not undo them. The best such (lowest
+/// held-out error); the finding to rename and the model with the alternative in its place.
+pub(super) fn leans_to(cur: &Config, cur_score: &Score, alts: &[(Effect, Vec<Alternative>, Option<Better>)], by_the_holds: &[Effect], ctx: &Ctx) -> Option<(Effect, Better)> {
     const SWAPPABLE: [Effect; 4] = [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift];
     let fading = |c: Config, s: Score, x: Vec<f64>| {
         let f = terms::refine_memory(ctx.d, ctx.trials, &c, ctx.hat).and_then(|f| score(ctx.d, ctx.trials, &f, ctx.hat).map(|(s, x)| (f, s, x)));
@@ -313,24 +316,26 @@ pub(super) fn leans_to(cur: &Config, cur_score: &Score, alts: &[(Effect, Vec<Alt
     };
     // the named model with a hysteresis in its best form (the reference each alternative must beat)
     let named_ref = |named: Effect| if named == Effect::Hysteresis { fading(cur.clone(), cur_score.clone(), vec![]).1 } else { cur_score.clone() };
-    let mut best: Option<(Effect, Better, f64)> = None;
-    for (named, list, _) in alts.iter().filter(|(named, ..)| SWAPPABLE.contains(named)) {
+    let mut best: Option<(Effect, Better)> = None;
+    for (named, list, _) in alts.iter().filter(|(named, ..)| SWAPPABLE.contains(named) && !by_the_holds.contains(named)) {
         let Some(idx) = cur.effects.iter().position(|e| e == named) else { continue };
         let reference = named_ref(*named);
         // (the list's gain is the lean's own but for a hysteresis's fading memory, which only
         // lowers the gain of an alternative to one named: it rules out the rest unrefitted; its
         // z is not, the robust routes being one-sided)
-        let may_lean = |e: &&Effect| list.iter().any(|a| a.effect == e.name() && (**e == Effect::Hysteresis || a.gain_over_named >= LEANS_GAIN));
+        // (creep and a second relaxation are named by the holds either way: `settled`)
+        let theirs = |e: &Effect| matches!((*named, *e), (Effect::Creep, Effect::SecondTimeConstant) | (Effect::SecondTimeConstant, Effect::Creep));
+        let may_lean = |e: &&Effect| !theirs(e) && list.iter().any(|a| a.effect == e.name() && (**e == Effect::Hysteresis || a.gain_over_named >= LEANS_GAIN));
         for other in SWAPPABLE.iter().filter(may_lean) {
             let Some((c, s, x)) = in_place(*other, &without(cur, idx), ctx) else { continue };
             let (c, s, x) = if *other == Effect::Hysteresis { fading(c, s, x) } else { (c, s, x) };
             let (gain, z) = (s.gain_over(&reference), z_over(&reference, &s));
-            if gain >= LEANS_GAIN && z >= LEANS_Z && best.as_ref().is_none_or(|b| gain > b.2) {
-                best = Some((*named, Better { effect: *other, cfg: c, score: s, x, z }, gain));
+            if gain >= LEANS_GAIN && z >= LEANS_Z && best.as_ref().is_none_or(|b| s.heldout_rmse < b.1.score.heldout_rmse) {
+                best = Some((*named, Better { effect: *other, cfg: c, score: s, x, z }));
             }
         }
     }
-    best.map(|(named, b, _)| (named, b))
+    best
 }
 
 /// The held-out units (trial, segment) of holds at a load above every earlier one of their trial:
@@ -465,29 +470,29 @@ mod tests {
         let (c, s, _) = in_place(named, &b.base_cfg, &ctx).expect("the named term is fitted");
         let alts = alternatives(&c, &s, &ctx);
         let clearly = alts.iter().any(|(_, _, b)| b.is_some());
-        (leans_to(&c, &s, &alts, &ctx).map(|(_, b)| b.effect), clearly)
+        (leans_to(&c, &s, &alts, &[], &ctx).map(|(_, b)| b.effect), clearly)
     }
 
     /// The name goes to the effect that predicts the held-out data better, whichever was named. A
     /// creep of the response carried over every change (a Prony spectrum of six terms over
-    /// 2–3600 s, 0.3 % of the level per decade): named a drift, a hysteresis or a second time
-    /// constant, the finding leans to creep; named creep, it stays. A warm-up drift (5e-5 V/s,
-    /// τ 300 s): named creep, it leans to the drift; named a drift, it stays. On seed 75 100 the
-    /// second time constant's creep predicts 1.3 % better at a paired z of 2.4, below the rule for
-    /// a clearly better explanation (3 %, z 3), which leaves the name alone.
+    /// 2–3600 s, 0.3 % of the level per decade): named a drift or a hysteresis, the finding leans to
+    /// creep; named creep, it stays; named a second time constant, the lean leaves it to the holds
+    /// (`settled`). A warm-up drift (5e-5 V/s, τ 300 s): named creep, it leans to the drift; named a
+    /// drift, it stays. At 0.15 % per decade (seed 75 000), the drift's creep predicts 1.4 % better,
+    /// below the rule for a clearly better explanation (3 %), which leaves the name alone: it leans.
     #[test]
     fn a_name_leans_to_the_effect_that_predicts_the_held_out_data_better() {
-        for seed in [75_000u64, 75_100] {
-            let creep = fixture::recs(seed, |s| {
-                (s.effects.creep_per_decade, s.effects.creep_superposed) = (0.003, true);
+        let creep_of = |seed: u64, per_decade: f64| {
+            fixture::recs(seed, |s| {
+                (s.effects.creep_per_decade, s.effects.creep_superposed) = (per_decade, true);
                 (s.effects.creep_spectrum_terms, s.effects.creep_spectrum_min_s, s.effects.creep_spectrum_max_s, s.effects.creep_spectrum_tilt) = (6, 2.0, 3600.0, 0.25);
-            });
+            })
+        };
+        for seed in [75_000u64, 75_100] {
+            let creep = creep_of(seed, 0.003);
             for named in [Effect::BaselineDrift, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::Creep] {
-                let (lean, clearly) = lean_of(&creep, named);
-                assert_eq!(lean, (named != Effect::Creep).then_some(Effect::Creep), "creep, seed {seed}, named {named:?}");
-                if (seed, named) == (75_100, Effect::SecondTimeConstant) {
-                    assert!(!clearly, "creep predicts better, but not clearly");
-                }
+                let want = matches!(named, Effect::BaselineDrift | Effect::Hysteresis).then_some(Effect::Creep);
+                assert_eq!(lean_of(&creep, named).0, want, "creep, seed {seed}, named {named:?}");
             }
             let drift = fixture::recs(seed, |s| (s.effects.drift_v_per_s, s.effects.drift_warmup_tau_s) = (5e-5, 300.0));
             for named in [Effect::BaselineDrift, Effect::Creep] {
@@ -495,6 +500,8 @@ mod tests {
                 assert_eq!(lean, (named == Effect::Creep).then_some(Effect::BaselineDrift), "drift, seed {seed}, named {named:?}");
             }
         }
+        let (lean, clearly) = lean_of(&creep_of(75_000, 0.0015), Effect::BaselineDrift);
+        assert_eq!((lean, clearly), (Some(Effect::Creep), false), "creep predicts better, but not clearly");
     }
 
     /// The virgin loading branch of the paper's protocol (five weights stacked, then lifted): the

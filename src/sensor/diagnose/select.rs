@@ -324,6 +324,8 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
     let passes = 2 * findings.len() + 1;
     // each of the two rules below decides once; one deciding leaves the other its turn
     let (mut settled_once, mut differ_once) = (false, false);
+    // the names a rule of the holds gave (the lean leaves them)
+    let mut by_the_holds: Vec<Effect> = Vec::new();
     for pass in 0..=passes {
         let alts = alternatives::alternatives(&cur, &cur_score, &actx);
         let swap = alts.iter().filter_map(|(e, _, b)| b.as_ref().map(|b| (*e, b))).max_by(|a, b| a.1.z.total_cmp(&b.1.z));
@@ -333,18 +335,19 @@ pub(super) fn choose(b: &Built, (clean, xc): (&Score, &[f64]), clip: Option<f64>
         // once; then creep or a second relaxation, which this recording cannot tell apart: what
         // the holds show (once: the other's τ2, fitted in its place, may move with the swap)
         // (and, in a pass where no rule of the holds decides, a name the held-out data lean away
-        // from goes to the alternative that predicts them better: each such step lowers the
-        // held-out error by LEANS_GAIN, so it cannot undo itself)
+        // from goes to the alternative that predicts them better, but not a name the holds gave:
+        // each lean lowers the held-out error, so leans cannot cycle)
         let (by_holds, by_differ, by_lean) = if swap.is_none() && merged.is_none() {
             let w = if differ_once { None } else { alternatives::where_they_differ(&cur, &cur_score, &alts, &actx) };
             let h = if w.is_some() || settled_once { None } else { alternatives::settled(&cur, &alts, &actx) };
-            let l = if w.is_some() || h.is_some() { None } else { alternatives::leans_to(&cur, &cur_score, &alts, &actx) };
+            let l = if w.is_some() || h.is_some() { None } else { alternatives::leans_to(&cur, &cur_score, &alts, &by_the_holds, &actx) };
             (h, w, l)
         } else {
             (None, None, None)
         };
         settled_once |= by_holds.is_some();
         differ_once |= by_differ.is_some();
+        by_the_holds.extend(by_holds.iter().chain(&by_differ).map(|(_, b)| b.effect));
         let settled = by_holds.or(by_differ).or(by_lean);
         let change = match (swap, &merged, &settled) {
             (Some((named, b)), _, _) => Some((vec![named], b)),
