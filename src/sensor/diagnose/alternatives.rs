@@ -278,10 +278,7 @@ pub(super) fn where_they_differ(cur: &Config, cur_score: &Score, alts: &[(Effect
         let Some(idx) = cur.effects.iter().position(|e| e == named).filter(|_| in_list || *named == Effect::SecondTimeConstant) else { continue };
         let Some((c, s, x)) = in_place(other, &without(cur, idx), ctx) else { continue };
         // a hysteresis against a relaxation: with its memory fading when the data show it
-        // (and of its physics' sign, as `in_place` asks of the permanent one)
-        let fading = (other == Effect::Hysteresis).then(|| terms::refine_memory(ctx.d, ctx.trials, &c, ctx.hat)).flatten();
-        let fading = fading.and_then(|f| score(ctx.d, ctx.trials, &f, ctx.hat).map(|(s, x)| (f, s, x))).filter(|(f, _, x)| of_its_sign(ctx.d, f, x, other));
-        let (c, s, x) = fading.unwrap_or((c, s, x));
+        let (c, s, x) = if other == Effect::Hysteresis { with_fading_memory((c, s, x), ctx) } else { (c, s, x) };
         let z = z_on_units(cur_score, &s, &keys);
         if z >= Z_SEPARATE {
             return Some((*named, Better { effect: other, cfg: c, score: s, x, z }));
@@ -310,16 +307,12 @@ pub(super) const LEANS_Z: f64 = 1.0;
 /// held-out error); the finding to rename and the model with the alternative in its place.
 pub(super) fn leans_to(cur: &Config, cur_score: &Score, alts: &[(Effect, Vec<Alternative>, Option<Better>)], by_the_holds: &[Effect], ctx: &Ctx) -> Option<(Effect, Better)> {
     const SWAPPABLE: [Effect; 4] = [Effect::Creep, Effect::Hysteresis, Effect::SecondTimeConstant, Effect::BaselineDrift];
-    let fading = |c: Config, s: Score, x: Vec<f64>| {
-        let f = terms::refine_memory(ctx.d, ctx.trials, &c, ctx.hat).and_then(|f| score(ctx.d, ctx.trials, &f, ctx.hat).map(|(s, x)| (f, s, x)));
-        f.filter(|(f, fs, x)| fs.heldout_rmse < s.heldout_rmse && of_its_sign(ctx.d, f, x, Effect::Hysteresis)).unwrap_or((c, s, x))
-    };
-    // the named model with a hysteresis in its best form (the reference each alternative must beat)
-    let named_ref = |named: Effect| if named == Effect::Hysteresis { fading(cur.clone(), cur_score.clone(), vec![]).1 } else { cur_score.clone() };
     let mut best: Option<(Effect, Better)> = None;
     for (named, list, _) in alts.iter().filter(|(named, ..)| SWAPPABLE.contains(named) && !by_the_holds.contains(named)) {
         let Some(idx) = cur.effects.iter().position(|e| e == named) else { continue };
-        let reference = named_ref(*named);
+        // the named model with a hysteresis in its best form (the reference each alternative must
+        // beat), refined only when an alternative may lean
+        let mut reference: Option<Score> = None;
         // (the list's gain is the lean's own but for a hysteresis's fading memory, which only
         // lowers the gain of an alternative to one named: it rules out the rest unrefitted; its
         // z is not, the robust routes being one-sided)
@@ -328,14 +321,24 @@ pub(super) fn leans_to(cur: &Config, cur_score: &Score, alts: &[(Effect, Vec<Alt
         let may_lean = |e: &&Effect| !theirs(e) && list.iter().any(|a| a.effect == e.name() && (**e == Effect::Hysteresis || a.gain_over_named >= LEANS_GAIN));
         for other in SWAPPABLE.iter().filter(may_lean) {
             let Some((c, s, x)) = in_place(*other, &without(cur, idx), ctx) else { continue };
-            let (c, s, x) = if *other == Effect::Hysteresis { fading(c, s, x) } else { (c, s, x) };
-            let (gain, z) = (s.gain_over(&reference), z_over(&reference, &s));
+            let (c, s, x) = if *other == Effect::Hysteresis { with_fading_memory((c, s, x), ctx) } else { (c, s, x) };
+            let reference =
+                reference.get_or_insert_with(|| if *named == Effect::Hysteresis { with_fading_memory((cur.clone(), cur_score.clone(), vec![]), ctx).1 } else { cur_score.clone() });
+            let (gain, z) = (s.gain_over(reference), z_over(reference, &s));
             if gain >= LEANS_GAIN && z >= LEANS_Z && best.as_ref().is_none_or(|b| s.heldout_rmse < b.1.score.heldout_rmse) {
                 best = Some((*named, Better { effect: *other, cfg: c, score: s, x, z }));
             }
         }
     }
     best
+}
+
+/// A model with a hysteresis (`c`, scored `s`, solution `x`), its memory fading when the data show
+/// it (`terms::refine_memory`, which takes it only when it predicts held-out data better) and of
+/// its physics' sign, as `in_place` asks of the permanent one; else as it is.
+fn with_fading_memory((c, s, x): (Config, Score, Vec<f64>), ctx: &Ctx) -> (Config, Score, Vec<f64>) {
+    let fading = terms::refine_memory(ctx.d, ctx.trials, &c, ctx.hat).and_then(|f| score(ctx.d, ctx.trials, &f, ctx.hat).map(|(s, x)| (f, s, x)));
+    fading.filter(|(f, _, x)| of_its_sign(ctx.d, f, x, Effect::Hysteresis)).unwrap_or((c, s, x))
 }
 
 /// The held-out units (trial, segment) of holds at a load above every earlier one of their trial:

@@ -220,9 +220,8 @@ const WITHIN_LEAST_BLOCKS: usize = 6;
 /// group lies in one trial, or when its held-out RMS falls by less than [`MIN_ROBUST_GAIN`].
 pub(super) fn within_trials_z(before: &Score, after: &Score, only: &[(usize, usize)]) -> Option<f64> {
     let (b, a) = units_on(before, after, only);
-    let (sb, sa) = (b.iter().sum::<f64>(), a.iter().sum::<f64>());
     let trials: std::collections::BTreeSet<usize> = only.iter().map(|u| u.0).collect();
-    if before.within.is_empty() || trials.len() < 2 || sb <= 0.0 || 1.0 - (sa / sb).sqrt() < MIN_ROBUST_GAIN {
+    if before.within.is_empty() || trials.len() < 2 || !robust_gain(&b, &a) {
         return None;
     }
     // `within` is sorted by its key (it comes from an ordered map)
